@@ -1,0 +1,1 @@
+"""PettingZoo environments built on the tomosim simulation core."""

@@ -1,0 +1,41 @@
+"""Occupancy-grid map merging with tomographic (Radon-transform) features.
+
+``merging`` is usable on its own: it imports neither the simulator nor the
+environments.
+
+>>> import merging
+>>> result = merging.estimate_transform(map1, map2)  # doctest: +SKIP
+>>> result.matrix, result.confidence, result.accepted  # doctest: +SKIP
+"""
+
+from merging.api import available_methods, estimate_transform, register_method
+from merging.grid import (
+    FREE_THRESHOLD,
+    OCCUPIED_THRESHOLD,
+    OccupancyGrid,
+    validate_cells,
+)
+from merging.mapio import load_map, save_map
+from merging.metrics import acceptance_index, matching_index, transform_error
+from merging.result import Hypothesis, MergeResult
+from merging.transforms import cells_to_metres, matrix_to_pose, rigid_matrix
+
+__all__ = [
+    "FREE_THRESHOLD",
+    "OCCUPIED_THRESHOLD",
+    "Hypothesis",
+    "MergeResult",
+    "OccupancyGrid",
+    "acceptance_index",
+    "available_methods",
+    "cells_to_metres",
+    "estimate_transform",
+    "load_map",
+    "matching_index",
+    "matrix_to_pose",
+    "register_method",
+    "rigid_matrix",
+    "save_map",
+    "transform_error",
+    "validate_cells",
+]

@@ -1,0 +1,145 @@
+"""Reading and writing ROS ``map_server`` maps (a YAML file beside a PGM/PNG image).
+
+The image's row 0 is the top of the picture, the largest ``y`` of the map;
+:class:`~merging.grid.OccupancyGrid` keeps row 0 at the origin, so both
+functions flip rows. Pixel values are interpreted as ``map_server`` does:
+``occ = (255 - p) / 255`` (or ``p / 255`` with ``negate: 1``), then
+
+* ``trinary``: ``occ > occupied_thresh`` -> 100, ``occ < free_thresh`` -> 0, else -1;
+* ``scale``: as trinary at the extremes, linear in between;
+* ``raw``: the pixel value itself (values above 100 become unknown).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from PIL import Image
+
+from merging.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+
+MODES = ("trinary", "scale", "raw")
+"""The ``mode`` values ``map_server`` understands."""
+PIXEL_OCCUPIED, PIXEL_UNKNOWN, PIXEL_FREE = 0, 205, 254
+"""Grey levels ``map_saver`` writes in trinary mode."""
+
+
+def load_map(yaml_path: str | Path) -> OccupancyGrid:
+    """Load a ``map_server`` map.
+
+    Parameters
+    ----------
+    yaml_path : str or Path
+        The map's YAML file; its ``image`` entry is resolved relative to it.
+
+    Returns
+    -------
+    OccupancyGrid
+
+    Raises
+    ------
+    FileNotFoundError
+        If the YAML file or its image does not exist.
+    ValueError
+        If the YAML is malformed or lacks a required key.
+    """
+    path = Path(yaml_path)
+    if not path.is_file():
+        raise FileNotFoundError(f"map file not found: {path}")
+    try:
+        meta = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path} is not valid YAML: {exc}") from exc
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path} must be a YAML mapping with image, resolution and origin")
+    missing = [key for key in ("image", "resolution", "origin") if key not in meta]
+    if missing:
+        raise ValueError(f"{path} lacks the key(s) {', '.join(missing)}")
+    image_path = Path(str(meta["image"]))
+    if not image_path.is_absolute():
+        image_path = path.parent / image_path
+    if not image_path.is_file():
+        raise FileNotFoundError(f"image {image_path} named by {path} not found")
+    try:
+        resolution = float(meta["resolution"])
+        origin_values = [float(v) for v in meta["origin"]]
+        negate = int(meta.get("negate", 0))
+        occupied_thresh = float(meta.get("occupied_thresh", 0.65))
+        free_thresh = float(meta.get("free_thresh", 0.196))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path} has a malformed number: {exc}") from exc
+    if len(origin_values) != 3:
+        raise ValueError(f"{path}: origin must be [x, y, yaw], got {meta['origin']}")
+    mode = str(meta.get("mode", "trinary"))
+    if mode not in MODES:
+        raise ValueError(f"{path}: mode must be one of {MODES}, got {mode!r}")
+    with Image.open(image_path) as image:
+        pixels = np.asarray(image.convert("L"), dtype=np.float64)
+    data = pixels_to_cells(
+        pixels, mode=mode, negate=bool(negate), occupied_thresh=occupied_thresh,
+        free_thresh=free_thresh,
+    )
+    origin = (origin_values[0], origin_values[1], origin_values[2])
+    return OccupancyGrid(data[::-1].copy(), resolution=resolution, origin=origin)
+
+
+def pixels_to_cells(
+    pixels: NDArray[np.float64],
+    *,
+    mode: str = "trinary",
+    negate: bool = False,
+    occupied_thresh: float = 0.65,
+    free_thresh: float = 0.196,
+) -> NDArray[np.int8]:
+    """Convert grey levels (0..255, rows as in the image) to the ROS cell coding."""
+    if mode == "raw":
+        raw = np.where(pixels > OCCUPIED, UNKNOWN, pixels)
+        return raw.astype(np.int8)
+    occ = pixels / 255.0 if negate else (255.0 - pixels) / 255.0
+    data = np.full(pixels.shape, UNKNOWN, dtype=np.int8)
+    data[occ > occupied_thresh] = OCCUPIED
+    data[occ < free_thresh] = FREE
+    if mode == "scale":
+        between = (occ >= free_thresh) & (occ <= occupied_thresh)
+        ratio = (occ[between] - free_thresh) / (occupied_thresh - free_thresh)
+        data[between] = np.rint(99 * ratio).astype(np.int8)
+    return data
+
+
+def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = "pgm") -> Path:
+    """Write ``grid`` as a ``map_server`` YAML plus a trinary PGM or PNG image.
+
+    Cells ``>= 65`` are written black (0), free cells (``<= 19``) white (254),
+    everything else grey (205), so :func:`load_map` reads the grid back exactly
+    when it holds only -1, 0 and 100.
+
+    Returns
+    -------
+    Path
+        The image file written beside the YAML.
+    """
+    if not isinstance(grid, OccupancyGrid):
+        raise TypeError(f"grid must be an OccupancyGrid, got {type(grid).__name__}")
+    if image_format not in ("pgm", "png"):
+        raise ValueError(f"image_format must be 'pgm' or 'png', got {image_format!r}")
+    path = Path(yaml_path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    image_path = path.with_suffix(f".{image_format}")
+    pixels = np.full(grid.shape, PIXEL_UNKNOWN, dtype=np.uint8)
+    pixels[grid.free()] = PIXEL_FREE
+    pixels[grid.occupied()] = PIXEL_OCCUPIED
+    Image.fromarray(pixels[::-1]).save(image_path)
+    meta = {
+        "image": image_path.name,
+        "resolution": float(grid.resolution),
+        "origin": [float(v) for v in grid.origin],
+        "negate": 0,
+        "occupied_thresh": 0.65,
+        "free_thresh": 0.196,
+        "mode": "trinary",
+    }
+    path.write_text(yaml.safe_dump(meta, sort_keys=False))
+    return image_path

@@ -1,0 +1,73 @@
+"""The result every merging method returns (the merger contract of DESIGN.md)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from merging.transforms import matrix_to_pose
+
+
+@dataclass(frozen=True, slots=True)
+class Hypothesis:
+    """One candidate transform a method considered.
+
+    ``score`` is the method's own ranking value (higher is better); the
+    verification fields are those of :class:`merging.verify.Verification`.
+    """
+
+    matrix: NDArray[np.float64]
+    score: float
+    agreement: float = 0.0
+    conflict: float = 0.0
+    overlap: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class MergeResult:
+    """What :func:`merging.estimate_transform` returns.
+
+    Attributes
+    ----------
+    matrix : (3, 3) float ndarray
+        Map transformation matrix of eq. (1): map 2 cells -> map 1 cells,
+        ``(x, y) = (col, row)``.
+    confidence : float
+        In ``[0, 1]``; higher means more certainly right.
+    accepted : bool
+        The method vouches for ``matrix``; when False the matrix is only the
+        best guess and must not be used to fuse maps.
+    method : str
+        The method's registered name.
+    matrix_metres : (3, 3) float ndarray or None
+        The same transform between the maps' frames in metres (map 2 frame ->
+        map 1 frame), when both inputs were :class:`OccupancyGrid`s.
+    hypotheses : tuple of Hypothesis
+        Candidates considered, best first.
+    timings : dict
+        Seconds spent per stage, and ``"total"``.
+    reason : str
+        Why the result was not accepted (empty when accepted).
+    """
+
+    matrix: NDArray[np.float64]
+    confidence: float
+    accepted: bool
+    method: str
+    matrix_metres: NDArray[np.float64] | None = None
+    hypotheses: tuple[Hypothesis, ...] = ()
+    timings: dict[str, float] = field(default_factory=dict)
+    reason: str = ""
+
+    @property
+    def rotation(self) -> float:
+        """Rotation of :attr:`matrix` in radians, counter-clockwise, in ``(-pi, pi]``."""
+        return matrix_to_pose(self.matrix)[2]
+
+    @property
+    def translation(self) -> tuple[float, float]:
+        """Translation ``(dx, dy)`` of :attr:`matrix` in cells."""
+        dx, dy, _ = matrix_to_pose(self.matrix)
+        return dx, dy

@@ -1,0 +1,60 @@
+"""Rigid map transformation matrices (eq. 1 of the paper) and their algebra.
+
+A *map transformation matrix* ``T`` is 3x3 homogeneous with
+``[x1, y1, 1]^T = T [x2, y2, 1]^T``: it takes map 2's cell coordinates
+``(x, y) = (col, row)`` into map 1's, rotating counter-clockwise by ``theta``
+and then translating by ``(dx, dy)`` (eq. 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from merging.grid import OccupancyGrid
+
+
+def rigid_matrix(dx: float, dy: float, theta: float) -> NDArray[np.float64]:
+    """``T(dx, dy, theta)`` of eq. (1); ``theta`` in radians, counter-clockwise."""
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s, dx], [s, c, dy], [0.0, 0.0, 1.0]])
+
+
+def rotation_about(theta: float, centre: ArrayLike) -> NDArray[np.float64]:
+    """Rotation by ``theta`` (radians, counter-clockwise) about the point ``centre``."""
+    cx, cy = np.asarray(centre, dtype=float)
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s, cx - c * cx + s * cy], [s, c, cy - s * cx - c * cy], [0, 0, 1.0]])
+
+
+def matrix_to_pose(matrix: ArrayLike) -> tuple[float, float, float]:
+    """``(dx, dy, theta)`` of a rigid matrix, ``theta`` in ``(-pi, pi]``."""
+    m = np.asarray(matrix, dtype=float)
+    return float(m[0, 2]), float(m[1, 2]), float(np.arctan2(m[1, 0], m[0, 0]))
+
+
+def apply_transform(matrix: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
+    """Apply a 3x3 homogeneous ``matrix`` to ``(N, 2)`` points; returns ``(N, 2)``."""
+    m = np.asarray(matrix, dtype=float)
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    return pts @ m[:2, :2].T + m[:2, 2]
+
+
+def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
+    """Wrap radians into ``(-pi, pi]``."""
+    a = np.asarray(angle, dtype=float)
+    return np.pi - np.mod(np.pi - a, 2 * np.pi)
+
+
+def cells_to_metres(
+    matrix: ArrayLike, grid1: OccupancyGrid, grid2: OccupancyGrid
+) -> NDArray[np.float64]:
+    """Express a cell transform as a transform between the two maps' frames in metres.
+
+    Returns ``W1 @ T @ inv(W2)`` where ``Wi`` is
+    :meth:`OccupancyGrid.cell_to_world_matrix`: it takes a point in map 2's
+    frame (metres) to map 1's frame (metres).
+    """
+    w1 = grid1.cell_to_world_matrix()
+    w2 = grid2.cell_to_world_matrix()
+    return w1 @ np.asarray(matrix, dtype=float) @ np.linalg.inv(w2)

@@ -1,0 +1,1 @@
+"""tomosim: simulation core (worlds, robots, lidar, mapping, exploration, recording, CLI)."""
