@@ -39,3 +39,7 @@ __all__ = [
     "transform_error",
     "validate_cells",
 ]
+
+# Registering the methods: importing a module adds it to the registry.
+from merging import paper as _paper  # noqa: F401
+from merging import tomographic as _tomographic  # noqa: F401

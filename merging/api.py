@@ -31,7 +31,11 @@ class MergeMethod(Protocol):
     """Signature of a registered merging method."""
 
     def __call__(
-        self, cells1: NDArray[np.int8], cells2: NDArray[np.int8], *, rng: np.random.Generator,
+        self,
+        cells1: NDArray[np.int8],
+        cells2: NDArray[np.int8],
+        *,
+        rng: np.random.Generator,
         **options: Any,
     ) -> MergeResult: ...
 
@@ -113,7 +117,10 @@ def estimate_transform(
     counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
     if min(counts) < MIN_OCCUPIED_CELLS:
         result = MergeResult(
-            matrix=np.eye(3), confidence=0.0, accepted=False, method=method,
+            matrix=np.eye(3),
+            confidence=0.0,
+            accepted=False,
+            method=method,
             reason=f"too few occupied cells to match (map1 {counts[0]}, map2 {counts[1]}; "
             f"need {MIN_OCCUPIED_CELLS})",
         )
@@ -123,7 +130,12 @@ def estimate_transform(
     timings["total"] = time.perf_counter() - start
     metres = cells_to_metres(result.matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
     return MergeResult(
-        matrix=result.matrix, confidence=float(np.clip(result.confidence, 0.0, 1.0)),
-        accepted=bool(result.accepted), method=method, matrix_metres=metres,
-        hypotheses=result.hypotheses, timings=timings, reason=result.reason,
+        matrix=result.matrix,
+        confidence=float(np.clip(result.confidence, 0.0, 1.0)),
+        accepted=bool(result.accepted),
+        method=method,
+        matrix_metres=metres,
+        hypotheses=result.hypotheses,
+        timings=timings,
+        reason=result.reason,
     )

@@ -115,7 +115,9 @@ class OccupancyGrid:
     def __post_init__(self) -> None:
         object.__setattr__(self, "data", validate_cells(self.data, name="data"))
         if not (np.isfinite(self.resolution) and self.resolution > 0):
-            raise ValueError(f"resolution must be a positive number of metres, got {self.resolution}")
+            raise ValueError(
+                f"resolution must be a positive number of metres, got {self.resolution}"
+            )
         if len(self.origin) != 3 or not all(np.isfinite(v) for v in self.origin):
             raise ValueError(f"origin must be three finite numbers (x, y, yaw), got {self.origin}")
         object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))

@@ -79,7 +79,10 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     with Image.open(image_path) as image:
         pixels = np.asarray(image.convert("L"), dtype=np.float64)
     data = pixels_to_cells(
-        pixels, mode=mode, negate=bool(negate), occupied_thresh=occupied_thresh,
+        pixels,
+        mode=mode,
+        negate=bool(negate),
+        occupied_thresh=occupied_thresh,
         free_thresh=free_thresh,
     )
     origin = (origin_values[0], origin_values[1], origin_values[2])

@@ -58,9 +58,7 @@ def acceptance_index(map1: ArrayLike, map2: ArrayLike, matrix: ArrayLike) -> flo
     return float(agree) / total if total else 0.0
 
 
-def transform_error(
-    estimate: ArrayLike, truth: ArrayLike, map2: ArrayLike
-) -> tuple[float, float]:
+def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: ArrayLike) -> tuple[float, float]:
     """Error of an estimated transform against the truth, on map 2's occupied cells.
 
     Returns

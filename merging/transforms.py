@@ -20,6 +20,12 @@ def rigid_matrix(dx: float, dy: float, theta: float) -> NDArray[np.float64]:
     return np.array([[c, -s, dx], [s, c, dy], [0.0, 0.0, 1.0]])
 
 
+def translation_matrix(offset: ArrayLike) -> NDArray[np.float64]:
+    """The matrix translating by ``offset = (dx, dy)`` cells."""
+    dx, dy = np.asarray(offset, dtype=float).ravel()
+    return rigid_matrix(float(dx), float(dy), 0.0)
+
+
 def rotation_about(theta: float, centre: ArrayLike) -> NDArray[np.float64]:
     """Rotation by ``theta`` (radians, counter-clockwise) about the point ``centre``."""
     cx, cy = np.asarray(centre, dtype=float)

@@ -18,9 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
-from merging.grid import free_mask, occupied_cells, occupied_mask
+from merging.grid import free_mask, occupied_mask
 from merging.transforms import apply_transform
 
 MAX_VERIFY_POINTS = 4000
@@ -38,6 +37,17 @@ CONFLICT_WEIGHT = 3.0
 SUPPORT_SCALE = 80.0
 """Agreeing cells (at full resolution) at which support reaches 1 - 1/e; about
 four metres of wall at 0.05 m, below which a match is too small to trust."""
+STRENGTH_SCALE = 10.0
+"""Constraint strength (matching cells per cell² of motion along the weakest
+direction, see :func:`merging.refine.constraint_strength`) at which that
+factor reaches 1 - 1/e: an overlap of one short wall scores about 3, a room
+corner about 30."""
+OVERLAP_PREFERENCE = 0.05
+"""Fit (quality) a tenfold larger overlap is worth when ranking hypotheses."""
+DISTINCT_MARGIN = 0.25
+"""The best transform must explain this much more than the best different one
+(as a fraction of its net agreeing cells) for the distinctiveness factor to
+pass one half."""
 ACCEPT_CONFIDENCE = 0.5
 """Confidence at or above which a result is accepted."""
 
@@ -50,6 +60,8 @@ class PreparedMap:
     ----------
     cells : (rows, cols) int8 ndarray
         The grid.
+    walls : (N, 2) float ndarray
+        ``(x, y)`` of every occupied cell.
     points : (N, 2) float ndarray
         ``(x, y)`` of at most :data:`MAX_VERIFY_POINTS` occupied cells, spread
         evenly over all of them.
@@ -62,6 +74,7 @@ class PreparedMap:
     """
 
     cells: NDArray[np.int8]
+    walls: NDArray[np.float64]
     points: NDArray[np.float64]
     point_weight: float
     near_occupied: NDArray[np.bool_]
@@ -73,18 +86,34 @@ class PreparedMap:
         return (int(self.cells.shape[0]), int(self.cells.shape[1]))
 
 
+def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
+    """Grow ``mask`` by ``radius`` cells in the chessboard metric (a square element).
+
+    Separable shifted ORs: far cheaper than a general binary dilation.
+    """
+    rows = mask.copy()
+    for k in range(1, radius + 1):
+        rows[:, k:] |= mask[:, :-k]
+        rows[:, :-k] |= mask[:, k:]
+    out = rows.copy()
+    for k in range(1, radius + 1):
+        out[k:, :] |= rows[:-k, :]
+        out[:-k, :] |= rows[k:, :]
+    return out
+
+
 def prepare_map(cells: NDArray[np.int8], *, max_points: int = MAX_VERIFY_POINTS) -> PreparedMap:
     """Compute the verification lookups of a validated grid."""
     occupied = occupied_mask(cells)
-    all_points = occupied_cells(cells)
+    rows, cols = np.divmod(np.flatnonzero(occupied), cells.shape[1])
+    all_points = np.column_stack([cols, rows]).astype(np.float64)
     stride = max(1, int(np.ceil(len(all_points) / max_points)))
     points = all_points[::stride]
     weight = len(all_points) / max(len(points), 1)
-    square = np.ones((3, 3), dtype=bool)
-    near = ndimage.binary_dilation(occupied, structure=square, iterations=NEAR_RADIUS)
-    blocked = ndimage.binary_dilation(near, structure=square, iterations=CONFLICT_CLEARANCE)
+    near = dilate(occupied, NEAR_RADIUS)
+    blocked = dilate(occupied, NEAR_RADIUS + CONFLICT_CLEARANCE)
     clear_free = free_mask(cells) & ~blocked
-    return PreparedMap(cells, points, weight, near, clear_free)
+    return PreparedMap(cells, all_points, points, weight, near, clear_free)
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,12 +140,33 @@ class Verification:
 
     @property
     def quality(self) -> float:
-        """``agreement - CONFLICT_WEIGHT * conflict``: the ranking score, at most 1."""
+        """``agreement - CONFLICT_WEIGHT * conflict``: how well the overlap fits, at most 1."""
         return self.agreement - CONFLICT_WEIGHT * self.conflict
+
+    @property
+    def net(self) -> float:
+        """Agreeing cells minus ``CONFLICT_WEIGHT`` times conflicting ones: the ranking score.
+
+        A count, not a fraction: a transform that overlaps only one corner of
+        a building can fit that corner perfectly, yet explains far less than
+        the true one.
+        """
+        return self.quality * self.overlap
+
+    @property
+    def score(self) -> float:
+        """The ranking score: :attr:`quality` plus a weak preference for larger overlaps.
+
+        The fit fraction alone lets one exactly fitting corner of a building
+        tie the whole building; the net count alone lets a large, loosely
+        fitting overlap beat a smaller exact one. A tenfold larger overlap is
+        worth :data:`OVERLAP_PREFERENCE` of fit.
+        """
+        return self.quality + OVERLAP_PREFERENCE * float(np.log10(max(self.overlap, 1.0)))
 
 
 def _landing(points: NDArray[np.float64], target: PreparedMap) -> tuple[float, float, float]:
-    """Counts of ``points`` (already in ``target``'s cells) on known, near-wall and clear-free cells."""
+    """Counts of ``points`` (in ``target``'s cells) on known, near-wall and clear-free cells."""
     cols = np.rint(points[:, 0]).astype(np.intp)
     rows = np.rint(points[:, 1]).astype(np.intp)
     rows_n, cols_n = target.shape
@@ -125,42 +175,56 @@ def _landing(points: NDArray[np.float64], target: PreparedMap) -> tuple[float, f
     known = target.cells[rows, cols] >= 0
     near = target.near_occupied[rows, cols]
     clear = target.clear_free[rows, cols]
-    return float(np.count_nonzero(known | near)), float(np.count_nonzero(near)), float(
-        np.count_nonzero(clear)
+    return (
+        float(np.count_nonzero(known | near)),
+        float(np.count_nonzero(near)),
+        float(np.count_nonzero(clear)),
     )
 
 
-def verify(first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float64]) -> Verification:
+def verify(
+    first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float64], *, stride: int = 1
+) -> Verification:
     """Carry each map's occupied cells into the other with ``matrix`` and count landings.
 
     ``matrix`` takes ``second``'s cells to ``first``'s (eq. 1 of the paper).
+    ``stride`` uses every ``stride``-th prepared point only, for a quick screen.
     """
-    forward = apply_transform(matrix, second.points)
-    backward = apply_transform(np.linalg.inv(matrix), first.points)
+    forward = apply_transform(matrix, second.points[::stride])
+    backward = apply_transform(np.linalg.inv(matrix), first.points[::stride])
     known_f, near_f, clear_f = _landing(forward, first)
     known_b, near_b, clear_b = _landing(backward, second)
-    known = known_f * second.point_weight + known_b * first.point_weight
-    near = near_f * second.point_weight + near_b * first.point_weight
-    clear = clear_f * second.point_weight + clear_b * first.point_weight
+    weight1, weight2 = first.point_weight * stride, second.point_weight * stride
+    known = known_f * weight2 + known_b * weight1
+    near = near_f * weight2 + near_b * weight1
+    clear = clear_f * weight2 + clear_b * weight1
     if known <= 0:
         return Verification(0.0, 0.0, 0.0, 0.0)
     return Verification(near / known, clear / known, known, near)
 
 
-def confidence(best: Verification, runner_up: Verification | None = None) -> float:
+def confidence(
+    best: Verification, runner_up: Verification | None = None, *, strength: float | None = None
+) -> float:
     """Map a verification (and the best *distinct* alternative) to ``[0, 1]``.
 
-    Three factors, each in ``[0, 1]``, multiplied:
+    Up to four factors, each in ``[0, 1]``, multiplied:
 
     * fit: a logistic of :attr:`Verification.quality` centred at 0.55;
     * support: ``1 - exp(-agreeing / SUPPORT_SCALE)``, so a handful of
       matching cells cannot vouch for a transform;
-    * distinctiveness: a logistic of the quality margin over the runner-up,
-      so that two equally good explanations (a symmetric building) give a low
-      confidence instead of a coin toss.
+    * distinctiveness: a logistic of ``1 - net(runner-up) / net(best)``, so
+      that two equally good explanations (a symmetric building) give a low
+      confidence instead of a coin toss;
+    * constraint (when ``strength`` is given): ``1 - exp(-strength /
+      STRENGTH_SCALE)``, so that an overlap that lets one map slide or turn
+      along a wall is not vouched for.
     """
     fit = 1.0 / (1.0 + np.exp(-(best.quality - 0.55) / 0.06))
     support = 1.0 - np.exp(-best.agreeing / SUPPORT_SCALE)
-    margin = best.quality - (runner_up.quality if runner_up is not None else 0.0)
-    distinct = 1.0 / (1.0 + np.exp(-(margin - 0.08) / 0.03))
-    return float(fit * support * distinct)
+    share = 0.0
+    if runner_up is not None and best.net > 0:
+        share = max(runner_up.net, 0.0) / best.net
+    distinct = 1.0 / (1.0 + np.exp(-((1.0 - share) - DISTINCT_MARGIN) / 0.05))
+    constrained = 1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / STRENGTH_SCALE)
+    return float(fit * support * distinct * constrained)

@@ -1,0 +1,150 @@
+"""Translation hypotheses from the correlation of every projection at once.
+
+The paper finds ``Δx`` and ``Δy`` by correlating only two partial sinograms,
+those at α = 180° and 90° (eqs. 11-17). Each projection angle gives the same
+kind of evidence: the 1-D cross-correlation of ``S_M1(·, α)`` with the
+rotated map's ``S(·, α)`` peaks at ``s = Δx cos α + Δy sin α``. The 1-D
+correlations of all angles are the Radon transform of the 2-D
+cross-correlation of the maps (the projection of a correlation is the
+correlation of the projections), so pooling all angles means finding the
+peaks of the 2-D correlation, which an FFT computes directly.
+
+To be cheap the correlation runs on a coarse grid (blocks of ``factor`` x
+``factor`` cells). Map 1 enters as a signed *target*: its walls, blurred to
+tolerate the residual rotation error, minus a penalty on its clear free
+space, so a shift that lays map 2's walls across map 1's open rooms loses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import fft, ndimage
+
+from merging.transforms import rigid_matrix
+from merging.verify import PreparedMap
+
+COARSE_CELLS = 160
+"""Largest side of the coarse grid: bounds the FFT size (and the time) for any map."""
+WALL_BLUR = 0.7
+"""Gaussian blur, in coarse cells, of map 1's walls: a 1-2° rotation error moves
+far walls by about one coarse cell."""
+FREE_PENALTY = 0.5
+"""Weight of map 1's clear free space in the target, relative to a wall."""
+PEAK_SUPPRESSION = 2
+"""Coarse cells around a translation peak within which weaker peaks are dropped."""
+
+
+@dataclass(frozen=True, slots=True)
+class CoarseMap:
+    """A map reduced to blocks of ``factor`` x ``factor`` cells.
+
+    Attributes
+    ----------
+    factor : int
+        Cells per block side.
+    target : (rows, cols) float32 ndarray
+        Correlation target: blurred walls minus ``FREE_PENALTY`` times the
+        fraction of the block that is clear free space.
+    walls : (rows, cols) float32 ndarray
+        1 where a block holds an occupied cell.
+    points : (M, 2) float ndarray
+        ``(x, y)`` block indices of the blocks holding walls.
+    """
+
+    factor: int
+    target: NDArray[np.float32]
+    walls: NDArray[np.float32]
+    points: NDArray[np.float64]
+
+
+def coarse_factor(*shapes: tuple[int, int]) -> int:
+    """Block size making the largest map at most :data:`COARSE_CELLS` blocks a side."""
+    largest = max(max(shape) for shape in shapes)
+    return max(1, int(np.ceil(largest / COARSE_CELLS)))
+
+
+def coarsen(prepared: PreparedMap, factor: int) -> CoarseMap:
+    """Reduce a prepared map to its coarse correlation images.
+
+    A block is a wall block when any of its cells is occupied (walls are
+    thin, so they must not be averaged away); its clear free space is
+    sampled at the block's centre cell, which costs nothing and, after the
+    blur, is as good a penalty as the block's exact fraction.
+    """
+    rows, cols = prepared.shape
+    shape = (-(-rows // factor), -(-cols // factor))
+    blocks = (prepared.walls // factor).astype(np.intp)
+    walls = np.zeros(shape, dtype=np.float32)
+    walls[blocks[:, 1], blocks[:, 0]] = 1.0
+    clear = np.zeros(shape, dtype=np.float32)
+    centre = factor // 2
+    sampled = prepared.clear_free[centre::factor, centre::factor]
+    clear[: sampled.shape[0], : sampled.shape[1]] = sampled
+    blurred = ndimage.gaussian_filter(walls, WALL_BLUR)
+    blurred /= max(float(blurred.max()), 1e-9)
+    target = (blurred - FREE_PENALTY * clear).astype(np.float32)
+    wall_rows, wall_cols = np.nonzero(walls)
+    points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
+    return CoarseMap(factor, target, walls, points)
+
+
+def translation_peaks(
+    first: CoarseMap, second: CoarseMap, theta: float, *, count: int
+) -> list[tuple[NDArray[np.float64], float]]:
+    """Best translations of ``second``, rotated by ``theta``, onto ``first``.
+
+    Parameters
+    ----------
+    first, second : CoarseMap
+        Map 1 and map 2, coarsened with the same factor.
+    theta : float
+        Rotation (radians, counter-clockwise) applied to map 2's cells.
+    count : int
+        Peaks to return.
+
+    Returns
+    -------
+    list of (matrix, score)
+        ``matrix`` takes map 2's full-resolution cells to map 1's; ``score``
+        is the target mass collected per wall block of map 2, best first.
+    """
+    factor = first.factor
+    rotated = second.points @ rigid_matrix(0.0, 0.0, theta)[:2, :2].T
+    low = np.floor(rotated.min(axis=0))
+    cells = np.rint(rotated - low).astype(np.intp)
+    shape_b = (int(cells[:, 1].max()) + 1, int(cells[:, 0].max()) + 1)
+    moving = np.zeros(shape_b, dtype=np.float32)
+    moving[cells[:, 1], cells[:, 0]] = 1.0
+    rows_a, cols_a = first.target.shape
+    size = (fft.next_fast_len(rows_a + shape_b[0]), fft.next_fast_len(cols_a + shape_b[1]))
+    spectrum = fft.rfft2(first.target, s=size) * np.conj(fft.rfft2(moving, s=size))
+    surface = fft.irfft2(spectrum, s=size)
+    # Index i means shift i (i < rows_a) or i - size (a negative shift).
+    valid = np.zeros(size, dtype=bool)
+    valid[:rows_a, :cols_a] = True
+    valid[size[0] - shape_b[0] + 1 :, :cols_a] = True
+    valid[:rows_a, size[1] - shape_b[1] + 1 :] = True
+    valid[size[0] - shape_b[0] + 1 :, size[1] - shape_b[1] + 1 :] = True
+    surface = np.where(valid, surface, -np.inf)
+    mass = float(moving.sum())
+    scale = np.array([[factor, 0, (factor - 1) / 2], [0, factor, (factor - 1) / 2], [0, 0, 1]])
+    to_coarse = np.linalg.inv(scale)
+    peaks: list[tuple[NDArray[np.float64], float]] = []
+    for _ in range(count):
+        flat = int(np.argmax(surface))
+        row, col = divmod(flat, size[1])
+        value = float(surface[row, col])
+        if not np.isfinite(value):
+            break
+        shift_y = row if row < rows_a else row - size[0]
+        shift_x = col if col < cols_a else col - size[1]
+        coarse = rigid_matrix(shift_x - low[0], shift_y - low[1], theta)
+        peaks.append((scale @ coarse @ to_coarse, value / mass))
+        r0, c0 = row - PEAK_SUPPRESSION, col - PEAK_SUPPRESSION
+        rows_idx = np.arange(r0, row + PEAK_SUPPRESSION + 1) % size[0]
+        cols_idx = np.arange(c0, col + PEAK_SUPPRESSION + 1) % size[1]
+        surface[np.ix_(rows_idx, cols_idx)] = -np.inf
+    return peaks
