@@ -1,0 +1,102 @@
+"""The merger contract: validation, graceful refusal, and never raising on valid grids."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import merging
+from merging.grid import OccupancyGrid
+
+
+@pytest.mark.parametrize(
+    ("bad", "error", "message"),
+    [
+        (np.zeros((3, 3, 3), dtype=np.int8), ValueError, "2-D"),
+        (np.array([[0.0, np.nan]]), ValueError, "NaN"),
+        (np.array([[0, 101]], dtype=np.int16), ValueError, "-1..100"),
+        (np.array([[-2, 0]], dtype=np.int16), ValueError, "-1..100"),
+        (np.zeros((0, 5), dtype=np.int8), ValueError, "at least one cell"),
+        (np.zeros((4, 4), dtype=bool), TypeError, "from_bool"),
+        ([[0, 100]], TypeError, "numpy array"),
+        (np.array([[0.5, 0.0]]), ValueError, "fractional"),
+    ],
+)
+def test_invalid_input_raises_a_named_error(bad, error, message) -> None:
+    good = np.zeros((10, 10), dtype=np.int8)
+    with pytest.raises(error, match=message):
+        merging.estimate_transform(bad, good)
+    with pytest.raises(error, match="map2"):
+        merging.estimate_transform(good, bad)
+
+
+def test_unknown_method_is_named() -> None:
+    grid = np.zeros((5, 5), dtype=np.int8)
+    with pytest.raises(ValueError, match="unknown method 'nope'"):
+        merging.estimate_transform(grid, grid, method="nope")
+
+
+def test_different_resolutions_are_refused() -> None:
+    a = OccupancyGrid(np.zeros((5, 5), dtype=np.int8), resolution=0.05)
+    b = OccupancyGrid(np.zeros((5, 5), dtype=np.int8), resolution=0.1)
+    with pytest.raises(ValueError, match="resolutions differ"):
+        merging.estimate_transform(a, b)
+
+
+@pytest.mark.parametrize("method", ["tomographic", "paper"])
+@pytest.mark.parametrize(
+    "case",
+    ["empty", "all unknown", "single wall", "no overlap"],
+)
+def test_valid_but_unmergeable_input_is_not_accepted(method: str, case: str) -> None:
+    rng = np.random.default_rng(4)
+    free = np.zeros((80, 90), dtype=np.int8)
+    if case == "empty":
+        pair = (free, free)
+    elif case == "all unknown":
+        pair = (np.full((50, 50), -1, np.int8), np.full((60, 40), -1, np.int8))
+    elif case == "single wall":
+        wall = free.copy()
+        wall[40, 5:85] = 100
+        pair = (wall, wall[::-1, ::-1].copy())
+    else:
+        a = np.where(rng.random((80, 90)) < 0.04, 100, 0).astype(np.int8)
+        b = np.where(rng.random((70, 60)) < 0.04, 100, 0).astype(np.int8)
+        pair = (a, b)
+    result = merging.estimate_transform(*pair, method=method, rng=0)
+    assert not result.accepted
+    assert 0.0 <= result.confidence < 0.5
+    assert result.matrix.shape == (3, 3) and np.all(np.isfinite(result.matrix))
+
+
+def test_occupancy_grids_give_the_transform_in_metres() -> None:
+    cells = np.full((120, 150), -1, dtype=np.int8)
+    cells[10:110, 10:140] = 0
+    cells[10, 10:140] = cells[109, 10:140] = cells[10:110, 10] = cells[10:110, 139] = 100
+    cells[10:80, 60] = cells[50, 60:139] = cells[30:45, 100:104] = 100
+    first = OccupancyGrid(cells, resolution=0.05, origin=(1.0, 2.0, 0.0))
+    second = OccupancyGrid(cells, resolution=0.05, origin=(-3.0, 0.5, 0.0))
+    result = merging.estimate_transform(first, second)
+    assert result.accepted
+    # Same cells, frames offset: a point of map 2's frame sits 4 m left, 1.5 m lower in map 1's.
+    assert result.matrix_metres is not None
+    assert np.allclose(result.matrix_metres[:2, 2], [4.0, 1.5], atol=0.03)
+
+
+grids = arrays(
+    np.int8,
+    st.tuples(st.integers(1, 48), st.integers(1, 48)),
+    elements=st.sampled_from([-1, 0, 0, 0, 50, 100, 100]),
+)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(first=grids, second=grids)
+def test_never_raises_on_valid_grids(first: np.ndarray, second: np.ndarray) -> None:
+    result = merging.estimate_transform(first, second)
+    assert 0.0 <= result.confidence <= 1.0
+    assert isinstance(result.accepted, bool)
+    assert np.all(np.isfinite(result.matrix))
