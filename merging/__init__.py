@@ -9,6 +9,7 @@ environments.
 """
 
 from merging.api import available_methods, estimate_transform, register_method
+from merging.fusion import FusedMap, MergeAllResult, fuse, merge, merge_all
 from merging.grid import (
     FREE_THRESHOLD,
     OCCUPIED_THRESHOLD,
@@ -23,16 +24,21 @@ from merging.transforms import cells_to_metres, matrix_to_pose, rigid_matrix
 __all__ = [
     "FREE_THRESHOLD",
     "OCCUPIED_THRESHOLD",
+    "FusedMap",
     "Hypothesis",
+    "MergeAllResult",
     "MergeResult",
     "OccupancyGrid",
     "acceptance_index",
     "available_methods",
     "cells_to_metres",
     "estimate_transform",
+    "fuse",
     "load_map",
     "matching_index",
     "matrix_to_pose",
+    "merge",
+    "merge_all",
     "register_method",
     "rigid_matrix",
     "save_map",

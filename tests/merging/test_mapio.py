@@ -1,0 +1,150 @@
+"""map_server I/O: exact round trips, the row flip, real maps, and errors that name the problem."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+
+from merging.grid import OccupancyGrid
+from merging.mapio import PIXEL_FREE, PIXEL_OCCUPIED, PIXEL_UNKNOWN, load_map, save_map
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+"""The checkout's root (the folder holding pyproject.toml)."""
+MAPS_ENV = "TOMOSIM_MAPS"
+"""Environment variable naming the folder of real maps; default ``<repo root>/../shared/maps``."""
+
+
+@pytest.fixture(scope="module")
+def maps_dir() -> Path:
+    """The folder of real ``map_server`` maps; skips the test when it is absent."""
+    configured = os.environ.get(MAPS_ENV)
+    folder = Path(configured) if configured else REPO_ROOT.parent / "shared" / "maps"
+    if not folder.is_dir():
+        pytest.skip(
+            f"real maps not found at {folder}; set {MAPS_ENV} to the shared maps folder "
+            "or place it at ../shared/maps beside the checkout"
+        )
+    return folder
+
+
+def write_map(folder: Path, pixels: np.ndarray, **meta: object) -> Path:
+    """Write ``pixels`` (image rows, top first) as a PNG and a YAML naming it."""
+    Image.fromarray(pixels.astype(np.uint8)).save(folder / "map.png")
+    fields = {"image": "map.png", "resolution": 0.05, "origin": [0.0, 0.0, 0.0], **meta}
+    path = folder / "map.yaml"
+    path.write_text(yaml.safe_dump(fields))
+    return path
+
+
+@pytest.mark.parametrize("image_format", ["pgm", "png"])
+def test_save_then_load_is_exact(tmp_path: Path, image_format: str) -> None:
+    rng = np.random.default_rng(7)
+    data = rng.choice(np.array([-1, 0, 100], dtype=np.int8), size=(37, 53))
+    grid = OccupancyGrid(data, resolution=0.1, origin=(-2.5, 3.25, 0.3))
+    image = save_map(grid, tmp_path / "sub" / "m.yaml", image_format=image_format)
+    assert image == tmp_path / "sub" / f"m.{image_format}"
+    loaded = load_map(tmp_path / "sub" / "m.yaml")
+    np.testing.assert_array_equal(loaded.data, grid.data)
+    assert loaded.resolution == grid.resolution
+    assert loaded.origin == grid.origin
+
+
+def test_save_writes_intermediate_values_by_threshold(tmp_path: Path) -> None:
+    grid = OccupancyGrid(np.array([[10, 19, 20, 64, 65, 90]], dtype=np.int8))
+    save_map(grid, tmp_path / "m.yaml")
+    np.testing.assert_array_equal(load_map(tmp_path / "m.yaml").data, [[0, 0, -1, -1, 100, 100]])
+
+
+def test_top_image_row_is_the_last_grid_row(tmp_path: Path) -> None:
+    pixels = np.full((4, 3), PIXEL_FREE)
+    pixels[0, :] = PIXEL_OCCUPIED  # the top of the picture
+    grid = load_map(write_map(tmp_path, pixels))
+    expected = np.zeros((4, 3), dtype=np.int8)
+    expected[-1, :] = 100
+    np.testing.assert_array_equal(grid.data, expected)
+
+
+def test_grid_row_zero_is_saved_as_the_bottom_image_row(tmp_path: Path) -> None:
+    data = np.zeros((3, 2), dtype=np.int8)
+    data[0, :] = 100
+    data[1, 0] = -1
+    image = save_map(OccupancyGrid(data), tmp_path / "m.yaml", image_format="png")
+    with Image.open(image) as picture:
+        pixels = np.asarray(picture)
+    np.testing.assert_array_equal(
+        pixels, [[PIXEL_FREE] * 2, [PIXEL_UNKNOWN, PIXEL_FREE], [PIXEL_OCCUPIED] * 2]
+    )
+
+
+@pytest.mark.parametrize(
+    ("meta", "expected"),
+    [
+        ({}, [100, -1, 0]),  # occ = (255 - p) / 255: 1.0, 0.61, 0.0
+        ({"negate": 1}, [0, -1, 100]),  # occ = p / 255: 0.0, 0.39, 1.0
+        ({"mode": "raw"}, [0, 100, -1]),  # the pixel itself; above 100 is unknown
+    ],
+)
+def test_pixel_interpretation(tmp_path: Path, meta: dict, expected: list[int]) -> None:
+    pixels = np.array([[0, 100, 255]])
+    np.testing.assert_array_equal(load_map(write_map(tmp_path, pixels, **meta)).data[0], expected)
+
+
+def test_scale_mode_is_linear_between_the_thresholds(tmp_path: Path) -> None:
+    # occ = (255 - p) / 255: p = 128 gives 0.498, (0.498 - 0.196) / (0.65 - 0.196) * 99 = 65.9;
+    # p = 200 gives 0.216, 4.3
+    pixels = np.array([[0, 128, 200, 255]])
+    grid = load_map(write_map(tmp_path, pixels, mode="scale"))
+    np.testing.assert_array_equal(grid.data[0], [100, 66, 4, 0])
+
+
+def test_real_map_has_its_documented_shape_and_origin(maps_dir: Path) -> None:
+    grid = load_map(maps_dir / "brsu_c069.yaml")
+    assert grid.shape == (544, 576)
+    assert grid.origin == (-8.0, -8.0, 0.0)
+    assert grid.resolution == 0.05
+    assert set(np.unique(grid.data).tolist()) == {-1, 0, 100}
+    assert grid.occupied().sum() > 1000  # a lab's walls, not an empty picture
+
+
+def test_missing_yaml_is_file_not_found(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match=r"nope\.yaml"):
+        load_map(tmp_path / "nope.yaml")
+
+
+def test_missing_image_is_file_not_found(tmp_path: Path) -> None:
+    path = write_map(tmp_path, np.zeros((2, 2)))
+    (tmp_path / "map.png").unlink()
+    with pytest.raises(FileNotFoundError, match=r"map\.png"):
+        load_map(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("image: [unclosed\n", "not valid YAML"),
+        ("- just\n- a list\n", "mapping"),
+        ("image: map.png\nresolution: 0.05\n", "origin"),
+        ("image: map.png\norigin: [0, 0, 0]\n", "resolution"),
+        ("image: map.png\nresolution: fine\norigin: [0, 0, 0]\n", "malformed number"),
+        ("image: map.png\nresolution: 0.05\norigin: [0, 0]\n", r"\[x, y, yaw\]"),
+        ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nmode: odd\n", "mode"),
+    ],
+)
+def test_bad_yaml_is_a_value_error_naming_it(tmp_path: Path, text: str, message: str) -> None:
+    Image.fromarray(np.zeros((2, 2), np.uint8)).save(tmp_path / "map.png")
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=message):
+        load_map(path)
+
+
+def test_save_refuses_arrays_and_unknown_formats(tmp_path: Path) -> None:
+    with pytest.raises(TypeError, match="OccupancyGrid"):
+        save_map(np.zeros((2, 2), np.int8), tmp_path / "m.yaml")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="image_format"):
+        save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), tmp_path / "m.yaml", image_format="jpg")
