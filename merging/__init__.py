@@ -9,13 +9,14 @@ environments.
 """
 
 from merging.api import available_methods, estimate_transform, register_method
-from merging.fusion import FusedMap, MergeAllResult, fuse, merge, merge_all
+from merging.fusion import FusedMap, fuse, merge
 from merging.grid import (
     FREE_THRESHOLD,
     OCCUPIED_THRESHOLD,
     OccupancyGrid,
     validate_cells,
 )
+from merging.linking import MergeAllResult, merge_all
 from merging.mapio import load_map, save_map
 from merging.metrics import acceptance_index, matching_index, transform_error
 from merging.result import Hypothesis, MergeResult
