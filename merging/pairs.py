@@ -74,6 +74,7 @@ def cut_window_pairs(
     window: tuple[int, int] | None = None,
     size_fraction: tuple[float, float] = (0.35, 0.55),
     overlap_range: tuple[float, float] = OVERLAP_RANGE,
+    min_known_fraction: float = MIN_KNOWN_FRACTION,
     rng: np.random.Generator | int | None = None,
 ) -> list[WindowPair]:
     """Cut ``count`` window pairs from a whole map (section 4.1 of the paper).
@@ -90,6 +91,8 @@ def cut_window_pairs(
         the extent of the map's observed part, and stays within that part.
     overlap_range : (float, float)
         Accepted average overlap ratio.
+    min_known_fraction : float
+        Observed fraction each window must have.
     rng : Generator, int or None
         Randomness for windows and angles.
 
@@ -126,16 +129,18 @@ def cut_window_pairs(
         x1 = int(generator.integers(x_min, x_max - w + 1))
         y1 = int(generator.integers(y_min, y_max - h + 1))
         window1 = cells[y1 : y1 + h, x1 : x1 + w]
-        if not _rich_enough(window1, occupied[y1 : y1 + h, x1 : x1 + w]):
+        if not _rich_enough(window1, occupied[y1 : y1 + h, x1 : x1 + w], min_known_fraction):
             continue
-        # Window 2: centred at a random point, cut from the map turned by angle.
-        centre = np.array([generator.uniform(x_min, x_max), generator.uniform(y_min, y_max)])
+        # Window 2: centred within one window size of window 1's centre (farther
+        # ones cannot overlap), cut from the map turned by angle.
+        centre = np.array([x1 + (w - 1) / 2, y1 + (h - 1) / 2])
+        centre += generator.uniform(-1.0, 1.0, size=2) * np.array([w, h])
         angle = float(generator.uniform(-np.pi, np.pi))
         half = np.array([(w - 1) / 2, (h - 1) / 2])
         whole_to_2 = translation_matrix(half) @ rigid_matrix(0.0, 0.0, angle)
         whole_to_2 = whole_to_2 @ translation_matrix(-centre)
         map2 = warp_cells(cells, whole_to_2, (h, w))
-        if not _rich_enough(map2, occupied_mask(map2)):
+        if not _rich_enough(map2, occupied_mask(map2), min_known_fraction):
             continue
         truth = rigid_matrix(-x1, -y1, 0.0) @ np.linalg.inv(whole_to_2)
         ratio = _overlap(window1 >= 0, map2, truth)
@@ -158,9 +163,9 @@ def _shared_wall(map1: NDArray[np.int8], map2: NDArray[np.int8], truth: NDArray[
     return min(walls1, walls2) >= MIN_SHARED_WALL
 
 
-def _rich_enough(window: NDArray[np.int8], occupied: NDArray[np.bool_]) -> bool:
+def _rich_enough(window: NDArray[np.int8], occupied: NDArray[np.bool_], known: float) -> bool:
     """Whether a window shows enough of the map to be worth merging."""
     return bool(
         np.count_nonzero(occupied) >= MIN_OCCUPIED
-        and np.count_nonzero(window >= 0) >= MIN_KNOWN_FRACTION * window.size
+        and np.count_nonzero(window >= 0) >= known * window.size
     )

@@ -1,0 +1,234 @@
+"""Benchmark the mergers on the paper's section 4.1 protocol, on real maps.
+
+For each map, window pairs are cut with :func:`merging.pairs.cut_window_pairs`
+(the second window rotated by a uniform random angle and shifted, average
+overlap 0.15-0.9). Every method runs on the same pairs, one after the other,
+so that machine load affects them alike. Reported per method:
+
+* ``within2``: fraction of pairs whose RMS error on map 2's occupied cells is
+  at most 2 cells;
+* ``accepted`` and ``acc_wrong``: fractions accepted, and accepted yet wrong
+  (more than 2 cells RMS);
+* ``Ψ``: mean and standard deviation of the matching index of eq. (31);
+* time: median and 90th percentile, in milliseconds;
+
+and how time grows with the side of square maps (200 to 1600 cells).
+
+Each pair's result is appended to a CSV file as soon as it is known, so an
+interrupted run keeps what it measured.
+
+Usage::
+
+    python scripts/bench_merge.py                       # the full benchmark
+    python scripts/bench_merge.py --pairs-per-map 5 --sizes 200 400   # a quick look
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+import merging
+from merging.metrics import matching_index, transform_error
+from merging.pairs import cut_window_pairs
+from tomosim.data import maps_dir
+
+DEFAULT_MAPS = ("aces3", "intel", "fr079", "brsu_c069")
+DEFAULT_METHODS = ("tomographic", "paper")
+SUCCESS_CELLS = 2.0
+"""A merge is right when map 2's occupied cells land within this RMS distance."""
+SCALING_MAP = "aces3"
+"""The largest map, from which square windows up to 1600 cells are cut."""
+
+
+@dataclass(frozen=True, slots=True)
+class Row:
+    """One method on one pair."""
+
+    map: str
+    pair: int
+    method: str
+    overlap: float
+    rms_cells: float
+    rotation_error_deg: float
+    accepted: bool
+    confidence: float
+    matching_index: float
+    truth_matching_index: float
+    seconds: float
+
+
+def run_pairs(names, methods, pairs_per_map, seed, writer, handle) -> list[Row]:
+    rows: list[Row] = []
+    folder = maps_dir()
+    for name in names:
+        grid = merging.load_map(folder / f"{name}.yaml")
+        pairs = cut_window_pairs(grid.data, count=pairs_per_map, rng=seed)
+        for index, pair in enumerate(pairs):
+            truth_index = matching_index(pair.map1, pair.map2, pair.truth)
+            for method in methods:
+                result = merging.estimate_transform(pair.map1, pair.map2, method=method, rng=seed)
+                rms, rotation = transform_error(result.matrix, pair.truth, pair.map2)
+                row = Row(
+                    name,
+                    index,
+                    method,
+                    round(pair.overlap, 4),
+                    round(rms, 3),
+                    round(rotation, 3),
+                    result.accepted,
+                    round(result.confidence, 4),
+                    round(matching_index(pair.map1, pair.map2, result.matrix), 4),
+                    round(truth_index, 4),
+                    round(result.timings["total"], 5),
+                )
+                rows.append(row)
+                writer.writerow(asdict(row))
+                handle.flush()
+            print(f"  {name} pair {index + 1}/{len(pairs)}", end="\r", file=sys.stderr)
+    print(file=sys.stderr)
+    return rows
+
+
+def summarise(rows: list[Row]) -> dict[str, float]:
+    right = np.array([r.rms_cells <= SUCCESS_CELLS for r in rows])
+    accepted = np.array([r.accepted for r in rows])
+    psi = np.array([r.matching_index for r in rows])
+    ms = np.array([r.seconds for r in rows]) * 1000
+    return {
+        "pairs": len(rows),
+        "within2": float(right.mean()),
+        "accepted": float(accepted.mean()),
+        "acc_wrong": float((accepted & ~right).mean()),
+        "psi_mean": float(psi.mean()),
+        "psi_std": float(psi.std()),
+        "median_ms": float(np.median(ms)),
+        "p90_ms": float(np.percentile(ms, 90)),
+    }
+
+
+def scaling(methods, sizes, repeats, seed) -> dict[str, dict[int, list[float]]]:
+    grid = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml")
+    times: dict[str, dict[int, list[float]]] = {m: {} for m in methods}
+    for size in sizes:
+        # Large windows of one building are mostly unobserved: only timing matters here.
+        pairs = cut_window_pairs(
+            grid.data, count=repeats, window=(size, size), min_known_fraction=0.05, rng=seed
+        )
+        for pair in pairs:
+            for method in methods:
+                start = time.perf_counter()
+                merging.estimate_transform(pair.map1, pair.map2, method=method, rng=seed)
+                times[method].setdefault(size, []).append(time.perf_counter() - start)
+        print(f"  scaling {size}x{size} done", file=sys.stderr)
+    return times
+
+
+def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str:
+    lines = [
+        "| method | pairs | within 2 cells | accepted | accepted but wrong | Ψ mean ± sd "
+        "| median ms | p90 ms |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for method, s in summary.items():
+        lines.append(
+            f"| {method} | {s['pairs']} | {s['within2']:.1%} | {s['accepted']:.1%} | "
+            f"{s['acc_wrong']:.1%} | {s['psi_mean']:.3f} ± {s['psi_std']:.3f} | "
+            f"{s['median_ms']:.0f} | {s['p90_ms']:.0f} |"
+        )
+    lines += ["", f"Ψ of the true transform (rasterisation limit): {truth_psi:.3f}", ""]
+    lines += [
+        "| map | method | within 2 cells | accepted but wrong | median ms |",
+        "|---|---|---|---|---|",
+    ]
+    for (name, method), s in per_map.items():
+        lines.append(
+            f"| {name} | {method} | {s['within2']:.1%} | {s['acc_wrong']:.1%} "
+            f"| {s['median_ms']:.0f} |"
+        )
+    if times:
+        methods = list(times)
+        sizes = sorted(next(iter(times.values())))
+        lines += [
+            "",
+            "| side (cells) | " + " | ".join(f"{m} median ms (IQR)" for m in methods) + " |",
+            "|---|" + "---|" * len(methods),
+        ]
+        for size in sizes:
+            cells = []
+            for m in methods:
+                t = np.array(times[m][size]) * 1000
+                q1, q3 = np.percentile(t, [25, 75])
+                cells.append(f"{np.median(t):.0f} ({q1:.0f}-{q3:.0f})")
+            lines.append(f"| {size} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--maps", nargs="+", default=list(DEFAULT_MAPS))
+    parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
+    parser.add_argument("--pairs-per-map", type=int, default=30)
+    parser.add_argument("--sizes", nargs="*", type=int, default=[200, 400, 800, 1600])
+    parser.add_argument("--size-repeats", type=int, default=5)
+    parser.add_argument("--seed", type=int, default=2020)
+    parser.add_argument("--out", type=Path, default=Path("results/bench_merge"))
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    args = parser.parse_args(argv)
+    if maps_dir() is None:
+        print("error: the real maps folder was not found; set TOMOSIM_MAPS to it", file=sys.stderr)
+        return 1
+    unknown = sorted(set(args.methods) - set(merging.available_methods()))
+    if unknown:
+        print(
+            f"error: unknown method(s) {unknown}; choose from {merging.available_methods()}",
+            file=sys.stderr,
+        )
+        return 2
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    csv_path = args.out.with_suffix(".csv")
+    with csv_path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(Row.__dataclass_fields__))
+        writer.writeheader()
+        rows = run_pairs(args.maps, args.methods, args.pairs_per_map, args.seed, writer, handle)
+    summary = {m: summarise([r for r in rows if r.method == m]) for m in args.methods}
+    per_map = {
+        (name, m): summarise([r for r in rows if r.method == m and r.map == name])
+        for name in args.maps
+        for m in args.methods
+    }
+    truth_psi = float(np.mean([r.truth_matching_index for r in rows]))
+    # Write the accuracy report first, so that it survives a failure in the timing runs.
+    args.out.with_suffix(".md").write_text(markdown(summary, per_map, {}, truth_psi) + "\n")
+    times = scaling(args.methods, args.sizes, args.size_repeats, args.seed) if args.sizes else {}
+    report = markdown(summary, per_map, times, truth_psi)
+    args.out.with_suffix(".md").write_text(report + "\n")
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "summary": summary,
+                    "truth_psi": truth_psi,
+                    "scaling_ms": {
+                        m: {s: float(np.median(v) * 1000) for s, v in t.items()}
+                        for m, t in times.items()
+                    },
+                },
+                indent=2,
+            )
+        )
+    else:
+        print(report)
+        print(f"\nrows: {csv_path}  report: {args.out.with_suffix('.md')}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
