@@ -1,0 +1,150 @@
+"""Benchmark the simulator: robot-steps per second (physics + lidar + mapping).
+
+A robot-step is one robot advanced by one :meth:`tomosim.simulation.Simulation.step`:
+its share of the physics, its odometry, a full lidar scan (360 beams by
+default, other robots visible) and the log-odds update of its map. Robots
+wander under smooth random commands, so they meet walls and each other as in
+an episode. Each configuration is timed ``--repeats`` times on one core;
+the table gives the median and the spread (min..max).
+
+A second table times one scan with the numpy caster against pymunk's segment
+queries, the oracle the tests compare it with. With ``--explore``, a third
+table follows one robot under the frontier policy on generated floors and
+reports the fraction of the free space it has mapped against the steps taken.
+
+Usage::
+
+    python scripts/bench_simulation.py [--robots 1 3 8] [--steps 300] [--repeats 5]
+    python scripts/bench_simulation.py --explore 0 1 2 --budget 3000
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from tomosim.evaluation import coverage
+from tomosim.exploration import FrontierPolicy
+from tomosim.lidar import LidarConfig
+from tomosim.lidar_oracle import cast_pymunk
+from tomosim.simulation import Simulation, SimulationConfig
+from tomosim.worlds import generate_floorplan
+
+WORLD_SEED = 7
+"""The generated world every run uses."""
+COMMAND_HOLD_STEPS = 10
+"""Steps between changes of a robot's random turn command."""
+WARMUP_STEPS = 20
+"""Untimed steps before each timed run (first-call costs, map allocation)."""
+
+
+def wander(sim: Simulation, steps: int, rng: np.random.Generator) -> float:
+    """Run ``steps`` steps of smooth random driving; returns the seconds taken."""
+    commands = np.column_stack([np.full(sim.count, 0.8), np.zeros(sim.count)])
+    start = time.perf_counter()
+    for step in range(steps):
+        if step % COMMAND_HOLD_STEPS == 0:
+            commands[:, 1] = rng.uniform(-1.0, 1.0, sim.count)
+        sim.step(commands)
+    return time.perf_counter() - start
+
+
+def bench_simulation(robots: int, steps: int, repeats: int, beams: int) -> list[float]:
+    """Robot-steps per second of ``repeats`` fresh runs with ``robots`` robots."""
+    world = generate_floorplan(WORLD_SEED)
+    config = SimulationConfig(lidar=LidarConfig(beams=beams))
+    rates = []
+    for repeat in range(repeats):
+        sim = Simulation(world, robots=robots, config=config, rng=repeat)
+        rng = np.random.default_rng(repeat)
+        wander(sim, WARMUP_STEPS, rng)
+        seconds = wander(sim, steps, rng)
+        rates.append(robots * steps / seconds)
+    return rates
+
+
+def bench_lidar(scans: int, beams: int) -> tuple[float, float]:
+    """Microseconds per noise-free scan: (numpy caster, pymunk segment queries)."""
+    world = generate_floorplan(WORLD_SEED)
+    sim = Simulation(
+        world, robots=3, config=SimulationConfig(lidar=LidarConfig(beams=beams)), rng=0
+    )
+    poses = world.sample_free_poses(scans, clearance=0.5, rng=1)
+    lidar = sim.lidar
+    angles = lidar.config.angles()
+    start = time.perf_counter()
+    for pose in poses:
+        lidar.true_ranges(pose)
+    numpy_us = (time.perf_counter() - start) / scans * 1e6
+    start = time.perf_counter()
+    for pose in poses:
+        cast_pymunk(sim.physics.space, pose, angles, lidar.config.max_range)
+    pymunk_us = (time.perf_counter() - start) / scans * 1e6
+    return numpy_us, pymunk_us
+
+
+def explore(seed: int, budget: int, checkpoints: list[int]) -> tuple[list[float], int]:
+    """Coverage at each checkpoint of one robot exploring floor ``seed``, and the
+    step at which the policy finished (``budget`` if it did not)."""
+    world = generate_floorplan(seed)
+    sim = Simulation(world, robots=1, rng=seed)
+    policy = FrontierPolicy()
+    fractions = []
+    finished = budget
+    for step in range(1, budget + 1):
+        if not policy.finished:
+            command = policy.act(sim.odometry_poses[0], sim.grid(0), scan=sim.scans[0])
+            sim.step(command[None])
+        elif finished == budget:
+            finished = step - 1
+        if step in checkpoints:
+            fractions.append(coverage(world, sim.grid(0), sim.start_poses[0]))
+    return fractions, finished
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", type=int, nargs="+", default=[1, 3, 8])
+    parser.add_argument("--steps", type=int, default=300, help="timed steps per run")
+    parser.add_argument("--repeats", type=int, default=5, help="runs per robot count")
+    parser.add_argument("--beams", type=int, default=360)
+    parser.add_argument("--scans", type=int, default=200, help="scans for the lidar table")
+    parser.add_argument(
+        "--explore",
+        type=int,
+        nargs="*",
+        default=[],
+        help="floor seeds for the exploration table (none: skip it)",
+    )
+    parser.add_argument("--budget", type=int, default=3000, help="exploration steps")
+    args = parser.parse_args()
+    world = generate_floorplan(WORLD_SEED)
+    print(
+        f"world: {world.name}, {len(world.walls)} wall segments; {args.beams} beams; "
+        f"{args.steps} steps x {args.repeats} repeats"
+    )
+    print(f"{'robots':>6} {'steps':>6} {'robot-steps/s median':>21} {'min':>8} {'max':>8}")
+    for robots in args.robots:
+        rates = bench_simulation(robots, args.steps, args.repeats, args.beams)
+        print(
+            f"{robots:>6} {args.steps:>6} {statistics.median(rates):>21.0f} "
+            f"{min(rates):>8.0f} {max(rates):>8.0f}"
+        )
+    numpy_us, pymunk_us = bench_lidar(args.scans, args.beams)
+    print(f"\nlidar, one {args.beams}-beam scan without noise:")
+    print(f"  numpy angular-sweep caster   {numpy_us:8.0f} us")
+    print(f"  pymunk segment_query_first   {pymunk_us:8.0f} us")
+    if args.explore:
+        checkpoints = [args.budget * k // 6 for k in range(1, 7)]
+        print("\nexploration, one robot, default 30 m x 20 m floor: fraction of free space mapped")
+        print(f"{'seed':>6} " + " ".join(f"{c:>6}" for c in checkpoints) + f" {'done at':>8}")
+        for seed in args.explore:
+            fractions, finished = explore(seed, args.budget, checkpoints)
+            print(f"{seed:>6} " + " ".join(f"{f:>6.3f}" for f in fractions) + f" {finished:>8}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,45 @@
+"""Frames in metres: poses as rigid matrices, and grids placed in another frame.
+
+A pose ``(x, y, theta)`` of frame B in frame A is the 3x3 matrix taking
+points of B to points of A (``[p_A, 1]^T = M [p_B, 1]^T``). A robot's map
+frame is its start pose, so its start pose (known to the simulator alone) is
+the matrix taking its map into the world.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from merging.grid import OccupancyGrid
+
+
+def pose_matrix(pose: ArrayLike) -> NDArray[np.float64]:
+    """3x3 rigid matrix of ``pose = (x, y, theta)`` (metres, radians)."""
+    x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
+
+
+def place_grid(grid: OccupancyGrid, frame_from_grid: ArrayLike) -> OccupancyGrid:
+    """The same cells placed in another frame.
+
+    ``frame_from_grid`` is a 3x3 rigid matrix taking points of ``grid``'s
+    frame (metres) to the new frame: e.g. :func:`pose_matrix` of a robot's
+    true start pose puts its map in the world, and the transform from a
+    merged map's frame into a robot's odometry frame puts the merged map
+    where that robot can plan on it.
+    """
+    matrix = np.asarray(frame_from_grid, dtype=float)
+    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+        raise ValueError(f"frame_from_grid must be a finite 3x3 matrix, got shape {matrix.shape}")
+    ox, oy, yaw = grid.origin
+    x, y = matrix[:2, :2] @ np.array([ox, oy]) + matrix[:2, 2]
+    turn = math.atan2(matrix[1, 0], matrix[0, 0])
+    return OccupancyGrid(
+        grid.data,
+        resolution=grid.resolution,
+        origin=(float(x), float(y), math.remainder(yaw + turn, 2 * math.pi)),
+    )

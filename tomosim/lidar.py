@@ -1,0 +1,196 @@
+"""A simulated 2-D lidar: beams, field of view, range limit, Gaussian noise and dropouts.
+
+Scan coding (every consumer relies on it):
+
+* ``angles`` are beam directions relative to the robot's heading, radians
+  counter-clockwise; beam ``k`` points at ``first_angle + k * increment``.
+  A full circle has ``increment = 2 pi / beams`` starting at ``-pi``;
+  a narrower field of view ``fov`` spans ``[-fov / 2, +fov / 2]`` with both
+  ends included.
+* ``ranges`` are metres: finite for a return, ``inf`` when nothing lies
+  within ``max_range``, ``nan`` for a dropout (the beam reported nothing).
+
+The robot does not see itself; other robots are circles and are seen. Walls
+are cast with :func:`tomosim.raycast.cast_segments`, which is checked against
+pymunk's segment queries (:mod:`tomosim.lidar_oracle`) in the tests.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tomosim.raycast import (
+    beam_directions,
+    cast_circles,
+    cast_segments,
+    cull_segments,
+    segment_bounds,
+)
+from tomosim.worlds.world import as_segments
+
+FULL_CIRCLE_TOLERANCE = 1e-9
+"""A field of view within this many radians of ``2 pi`` is a full circle."""
+
+
+@dataclass(frozen=True)
+class LidarConfig:
+    """Lidar parameters.
+
+    Attributes
+    ----------
+    beams : int
+        Number of beams per scan.
+    fov : float
+        Field of view in radians, ``(0, 2 pi]``.
+    max_range : float
+        Metres beyond which nothing is returned.
+    range_noise_std : float
+        Standard deviation of the Gaussian noise added to each return, metres.
+    dropout_probability : float
+        Chance that a beam reports nothing (``nan``).
+    """
+
+    beams: int = 360
+    fov: float = 2.0 * np.pi
+    max_range: float = 8.0
+    range_noise_std: float = 0.01
+    dropout_probability: float = 0.005
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.beams, int | np.integer) and self.beams >= 2):
+            raise ValueError(f"beams must be an integer of at least 2, got {self.beams!r}")
+        if not 0.0 < self.fov <= 2.0 * np.pi + FULL_CIRCLE_TOLERANCE:
+            raise ValueError(f"fov must be in (0, 2 pi] radians, got {self.fov}")
+        if not (np.isfinite(self.max_range) and self.max_range > 0):
+            raise ValueError(f"max_range must be a positive number of metres, got {self.max_range}")
+        if not (np.isfinite(self.range_noise_std) and self.range_noise_std >= 0):
+            raise ValueError(f"range_noise_std must be >= 0 metres, got {self.range_noise_std}")
+        if not 0.0 <= self.dropout_probability < 1.0:
+            raise ValueError(
+                f"dropout_probability must be in [0, 1), got {self.dropout_probability}"
+            )
+
+    @property
+    def full_circle(self) -> bool:
+        """Whether the beams cover the whole circle."""
+        return bool(self.fov >= 2.0 * np.pi - FULL_CIRCLE_TOLERANCE)
+
+    @property
+    def increment(self) -> float:
+        """Radians between consecutive beams."""
+        if self.full_circle:
+            return 2.0 * np.pi / self.beams
+        return self.fov / (self.beams - 1)
+
+    @property
+    def first_angle(self) -> float:
+        """Direction of beam 0 relative to the heading, radians."""
+        return -np.pi if self.full_circle else -0.5 * self.fov
+
+    def angles(self) -> NDArray[np.float64]:
+        """``(beams,)`` beam directions relative to the heading, radians."""
+        return np.asarray(self.first_angle + self.increment * np.arange(self.beams), dtype=float)
+
+
+@dataclass(frozen=True, slots=True)
+class Scan:
+    """One lidar scan in the coding of the module docstring.
+
+    Attributes
+    ----------
+    angles : (B,) float ndarray
+        Beam directions relative to the heading, radians.
+    ranges : (B,) float ndarray
+        Metres; ``inf`` no return within ``max_range``; ``nan`` dropout.
+    max_range : float
+        The lidar's range limit, metres.
+    """
+
+    angles: NDArray[np.float64]
+    ranges: NDArray[np.float64]
+    max_range: float
+
+    def points(self, pose: ArrayLike) -> NDArray[np.float64]:
+        """``(H, 2)`` end points of the finite returns, in the frame ``pose`` is given in."""
+        x, y, theta = np.asarray(pose, dtype=float)
+        hit = np.isfinite(self.ranges)
+        bearing = theta + self.angles[hit]
+        r = self.ranges[hit]
+        return np.column_stack([x + r * np.cos(bearing), y + r * np.sin(bearing)])
+
+
+class Lidar:
+    """Casts scans in a world of wall segments and circular robots.
+
+    Parameters
+    ----------
+    config : LidarConfig
+        Beams, range and noise.
+    walls : (N, 2, 2) float ndarray
+        Wall segments in metres.
+    """
+
+    __slots__ = ("_angles", "_bounds", "config", "walls")
+
+    def __init__(self, config: LidarConfig, walls: ArrayLike) -> None:
+        if not isinstance(config, LidarConfig):
+            raise TypeError(f"config must be a LidarConfig, got {type(config).__name__}")
+        self.config = config
+        self.walls = as_segments(walls)
+        self._bounds = segment_bounds(self.walls)
+        self._angles = config.angles()
+        self._angles.setflags(write=False)
+
+    def true_ranges(
+        self,
+        pose: ArrayLike,
+        *,
+        others: ArrayLike = (),
+        other_radii: ArrayLike = (),
+    ) -> NDArray[np.float64]:
+        """Noise-free ``(B,)`` ranges from ``pose = (x, y, theta)``.
+
+        ``others`` are ``(C, 2)`` centres of the other robots (never the
+        scanning robot itself), ``other_radii`` their ``(C,)`` radii, metres.
+        """
+        x, y, theta = np.asarray(pose, dtype=float)
+        origin = np.array([x, y])
+        cfg = self.config
+        walls = self.walls[cull_segments(origin, self._bounds, cfg.max_range)]
+        ranges = cast_segments(
+            origin, theta + cfg.first_angle, cfg.increment, cfg.beams, walls, cfg.max_range
+        )
+        centres = np.asarray(others, dtype=float).reshape(-1, 2)
+        if len(centres):
+            radii = np.broadcast_to(np.asarray(other_radii, dtype=float), (len(centres),))
+            directions = beam_directions(theta + self._angles)
+            np.minimum(
+                ranges, cast_circles(origin, directions, centres, radii, cfg.max_range), out=ranges
+            )
+        return ranges
+
+    def scan(
+        self,
+        pose: ArrayLike,
+        *,
+        rng: np.random.Generator,
+        others: ArrayLike = (),
+        other_radii: ArrayLike = (),
+    ) -> Scan:
+        """A noisy :class:`Scan` from ``pose``; see :meth:`true_ranges` for the arguments.
+
+        Every call draws the same number of random values from ``rng``
+        (``beams`` normals, then ``beams`` uniforms), so that runs are
+        reproducible whatever the scene.
+        """
+        cfg = self.config
+        ranges = self.true_ranges(pose, others=others, other_radii=other_radii)
+        noise = rng.normal(0.0, 1.0, cfg.beams) * cfg.range_noise_std
+        dropped = rng.random(cfg.beams) < cfg.dropout_probability
+        hit = np.isfinite(ranges)
+        ranges[hit] = np.clip(ranges[hit] + noise[hit], 0.0, cfg.max_range)
+        ranges[dropped] = np.nan
+        return Scan(self._angles, ranges, cfg.max_range)

@@ -1,0 +1,300 @@
+"""Log-odds occupancy mapping: a growing grid per robot, in the robot's own frame.
+
+Inverse sensor model (per scan, vectorised over all beams):
+
+1. each beam is sampled every :data:`SAMPLE_STEP_CELLS` cell from the sensor
+   to its end point (excluded); the cells sampled are *passed*;
+2. a beam that returned marks the cell of its end point *hit*; a beam with no
+   return within range (``inf``) only passes cells up to ``max_range``; a
+   dropout (``nan``) does nothing;
+3. every passed cell gets ``log_odds_miss`` once per scan, however many beams
+   pass it, then every hit cell gets ``log_odds_hit`` added to its value from
+   before the scan (a hit wins over a pass in the same scan), and values are
+   clamped to ``[log_odds_min, log_odds_max]``.
+
+Counting a cell once per scan keeps the cells near the robot, which many
+beams cross, from being over-weighted. Cells never observed stay unknown.
+Exported grids use the ROS coding of :mod:`merging.grid`:
+``round(100 / (1 + exp(-l)))`` for observed cells, ``-1`` for the rest.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from merging.grid import UNKNOWN, OccupancyGrid
+from tomosim.lidar import Scan
+
+HIT_DEPTH_CELLS = 0.5
+"""Cells beyond the measured range at which a return marks its cell: a surface
+lying on a cell boundary (as every wall of a world made from a grid does)
+then marks the cell behind it, not the free cell in front, and range noise
+well under half a cell rarely changes that."""
+SAMPLE_STEP_CELLS = 1.0
+"""Cells between samples along a beam: one sample per cell crossed straight;
+a diagonal crossing may skip a corner cell, which neighbouring beams fill."""
+
+
+@dataclass(frozen=True)
+class MappingConfig:
+    """Occupancy-grid parameters.
+
+    Attributes
+    ----------
+    resolution : float
+        Cell edge, metres.
+    log_odds_hit, log_odds_miss : float
+        Log-odds added for a hit (> 0) and a pass (< 0). The defaults make one
+        hit enough for *occupied* (>= 65 %) and four passes for *free* (<= 19 %).
+    log_odds_min, log_odds_max : float
+        Clamp, so that a cell can change its mind after a few scans.
+    initial_extent : float
+        Side of the square grid allocated at the start, metres, centred on the
+        robot.
+    growth_padding : float
+        Metres added beyond what a scan needs whenever the grid must grow.
+    carve_no_return : bool
+        Whether a beam with no return marks cells free up to ``max_range``.
+    """
+
+    resolution: float = 0.05
+    log_odds_hit: float = 0.85
+    log_odds_miss: float = -0.4
+    log_odds_min: float = -2.0
+    log_odds_max: float = 3.5
+    initial_extent: float = 20.0
+    growth_padding: float = 8.0
+    carve_no_return: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.resolution) and self.resolution > 0):
+            raise ValueError(
+                f"resolution must be a positive number of metres, got {self.resolution}"
+            )
+        if not (self.log_odds_hit > 0 > self.log_odds_miss):
+            raise ValueError(
+                f"need log_odds_hit > 0 > log_odds_miss, got "
+                f"{self.log_odds_hit} and {self.log_odds_miss}"
+            )
+        if not (self.log_odds_min < 0 < self.log_odds_max):
+            raise ValueError(
+                f"need log_odds_min < 0 < log_odds_max, got "
+                f"{self.log_odds_min} and {self.log_odds_max}"
+            )
+        if not (self.initial_extent > 0 and self.growth_padding >= 0):
+            raise ValueError(
+                f"initial_extent must be > 0 and growth_padding >= 0 metres, got "
+                f"{self.initial_extent} and {self.growth_padding}"
+            )
+
+
+def integrate_rays(
+    logodds: NDArray[np.float32],
+    observed: NDArray[np.bool_],
+    origin: tuple[float, float],
+    ends: NDArray[np.float64],
+    hit: NDArray[np.bool_],
+    config: MappingConfig,
+) -> None:
+    """Apply one scan to a log-odds grid in place (steps 1-3 of the module docstring).
+
+    Parameters
+    ----------
+    logodds : (rows, cols) float32 ndarray
+        Log-odds per cell, indexed ``[row, col]``; updated in place.
+    observed : (rows, cols) bool ndarray
+        Set in place for every cell the scan touches.
+    origin : (float, float)
+        Sensor position in cell coordinates ``(x, y) = (col, row)``, cell
+        centres at integers.
+    ends : (M, 2) float ndarray
+        Beam end points in cell coordinates; all of them, and ``origin``,
+        must lie inside the grid.
+    hit : (M,) bool ndarray
+        Whether each beam's end point is an obstacle.
+    config : MappingConfig
+        Log-odds increments and clamp.
+    """
+    _rows, cols = logodds.shape
+    ox, oy = origin
+    dx = ends[:, 0] - ox
+    dy = ends[:, 1] - oy
+    counts = np.ceil(np.hypot(dx, dy) / SAMPLE_STEP_CELLS).astype(np.intp)
+    np.maximum(counts, 1, out=counts)
+    total = int(counts.sum())
+    # Sample j of beam i sits at origin + j / counts[i] * (end - origin), j < counts[i].
+    first = np.cumsum(counts) - counts
+    step = np.arange(total, dtype=np.float32)
+    step -= np.repeat(first.astype(np.float32), counts)
+    xs = np.repeat((dx / counts).astype(np.float32), counts)
+    xs *= step
+    xs += np.float32(ox + 0.5)
+    ys = np.repeat((dy / counts).astype(np.float32), counts)
+    ys *= step
+    ys += np.float32(oy + 0.5)
+    passed = ys.astype(np.intp)
+    passed *= cols
+    passed += xs.astype(np.intp)
+    # Hit cells: the end point carried HIT_DEPTH_CELLS further along its beam.
+    lengths = np.maximum(np.hypot(dx[hit], dy[hit]), np.finfo(float).tiny)
+    depth = HIT_DEPTH_CELLS / lengths
+    hits = np.floor(
+        np.column_stack([ends[hit, 0] + dx[hit] * depth, ends[hit, 1] + dy[hit] * depth]) + 0.5
+    ).astype(np.intp)
+    hit_index = hits[:, 1] * cols + hits[:, 0]
+    flat = logodds.reshape(-1)
+    before = flat[hit_index]
+    values = flat[passed]
+    values += np.float32(config.log_odds_miss)
+    np.maximum(values, np.float32(config.log_odds_min), out=values)
+    flat[passed] = values
+    before += np.float32(config.log_odds_hit)
+    np.minimum(before, np.float32(config.log_odds_max), out=before)
+    flat[hit_index] = before
+    seen = observed.reshape(-1)
+    seen[passed] = True
+    seen[hit_index] = True
+
+
+class LogOddsMap:
+    """A log-odds occupancy grid in one robot's frame that grows as needed.
+
+    Parameters
+    ----------
+    config : MappingConfig
+        Resolution, log-odds model and growth.
+
+    Attributes
+    ----------
+    logodds : (rows, cols) float32 ndarray
+        Log-odds per cell, row 0 at ``origin``.
+    observed : (rows, cols) bool ndarray
+        Cells any scan has touched.
+    origin : (float, float)
+        Map-frame coordinates (metres) of the outer corner of cell ``(0, 0)``;
+        always a whole number of cells from the frame's origin.
+    """
+
+    __slots__ = ("_cells", "_stale", "config", "logodds", "observed", "origin")
+
+    def __init__(self, config: MappingConfig | None = None) -> None:
+        self.config = config if config is not None else MappingConfig()
+        side = max(1, math.ceil(self.config.initial_extent / self.config.resolution))
+        self.logodds = np.zeros((side, side), dtype=np.float32)
+        self.observed = np.zeros((side, side), dtype=bool)
+        corner = -(side // 2) * self.config.resolution
+        self.origin = (corner, corner)
+        # ROS-coded copy of the map, brought up to date on export over the
+        # cell box ``_stale`` = (row0, row1, col0, col1) that updates touched.
+        self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
+        self._stale: tuple[int, int, int, int] | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)`` currently allocated."""
+        return (int(self.logodds.shape[0]), int(self.logodds.shape[1]))
+
+    def to_cells(self, points: ArrayLike) -> NDArray[np.float64]:
+        """``(N, 2)`` map-frame metres to cell coordinates (centres at integers)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        return (pts - np.asarray(self.origin)) / self.config.resolution - 0.5
+
+    def ensure_contains(self, low: ArrayLike, high: ArrayLike) -> None:
+        """Grow the grid so that the box ``low..high`` (metres) lies inside it.
+
+        Growth adds ``growth_padding`` beyond the box on each side that was
+        too small, in whole cells, and keeps every existing cell's place.
+        """
+        res = self.config.resolution
+        pad = self.config.growth_padding
+        rows, cols = self.shape
+        cell_low = np.floor((np.asarray(low, dtype=float) - self.origin) / res).astype(int)
+        cell_high = np.floor((np.asarray(high, dtype=float) - self.origin) / res).astype(int)
+        extra = math.ceil(pad / res)
+        grow_before = np.where(cell_low < 0, -cell_low + extra, 0)
+        limit = np.array([cols - 1, rows - 1])
+        grow_after = np.where(cell_high > limit, cell_high - limit + extra, 0)
+        if not (np.any(grow_before) or np.any(grow_after)):
+            return
+        (left, bottom), (right, top) = grow_before.tolist(), grow_after.tolist()
+        widths = ((bottom, top), (left, right))
+        self.logodds = np.pad(self.logodds, widths)
+        self.observed = np.pad(self.observed, widths)
+        self._cells = np.pad(self._cells, widths, constant_values=UNKNOWN)
+        self.origin = (self.origin[0] - left * res, self.origin[1] - bottom * res)
+        if self._stale is not None:
+            r0, r1, c0, c1 = self._stale
+            self._stale = (r0 + bottom, r1 + bottom, c0 + left, c1 + left)
+
+    def update(self, pose: ArrayLike, scan: Scan) -> None:
+        """Integrate ``scan`` taken at ``pose = (x, y, theta)`` (map frame, metres, radians)."""
+        x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
+        if not all(math.isfinite(v) for v in (x, y, theta)):
+            raise ValueError(f"pose must be finite, got {(x, y, theta)}")
+        ranges = scan.ranges
+        hit = np.isfinite(ranges)
+        use = hit | (np.isinf(ranges) if self.config.carve_no_return else False)
+        if not np.any(use):
+            return
+        length = np.where(hit, ranges, scan.max_range)[use]
+        bearing = theta + scan.angles[use]
+        ends = np.column_stack([x + length * np.cos(bearing), y + length * np.sin(bearing)])
+        # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
+        room = self.config.resolution
+        self.ensure_contains(
+            np.minimum(ends.min(axis=0), (x, y)) - room, np.maximum(ends.max(axis=0), (x, y)) + room
+        )
+        origin = self.to_cells([[x, y]])[0]
+        cells = self.to_cells(ends)
+        integrate_rays(
+            self.logodds,
+            self.observed,
+            (float(origin[0]), float(origin[1])),
+            cells,
+            hit[use],
+            self.config,
+        )
+        low = np.floor(np.minimum(cells.min(axis=0), origin)).astype(int)
+        high = np.ceil(np.maximum(cells.max(axis=0), origin)).astype(int) + 1
+        box = (int(low[1]), int(high[1]), int(low[0]), int(high[0]))
+        if self._stale is not None:
+            box = (
+                min(box[0], self._stale[0]),
+                max(box[1], self._stale[1]),
+                min(box[2], self._stale[2]),
+                max(box[3], self._stale[3]),
+            )
+        self._stale = box
+
+    def probability(self) -> NDArray[np.float64]:
+        """``(rows, cols)`` occupancy probability, ``nan`` where never observed."""
+        prob = 1.0 / (1.0 + np.exp(-self.logodds.astype(np.float64)))
+        prob[~self.observed] = np.nan
+        return prob
+
+    def to_occupancy_grid(self) -> OccupancyGrid:
+        """The map as an :class:`~merging.grid.OccupancyGrid` in the robot's frame.
+
+        Cell ``(0, 0)``'s corner is at ``origin`` (yaw 0): the frame is the
+        robot's odometry frame, whose origin is its start pose. Only the cells
+        changed since the last export are converted again.
+        """
+        if self._stale is not None:
+            r0, r1, c0, c1 = self._stale
+            rows, cols = self.shape
+            window = (slice(max(r0, 0), min(r1, rows)), slice(max(c0, 0), min(c1, cols)))
+            percent = np.float32(100.0) / (np.float32(1.0) + np.exp(-self.logodds[window]))
+            percent += np.float32(0.5)
+            cells = percent.astype(np.int8)
+            np.putmask(cells, ~self.observed[window], np.int8(UNKNOWN))
+            self._cells[window] = cells
+            self._stale = None
+        return OccupancyGrid(
+            self._cells.copy(),
+            resolution=self.config.resolution,
+            origin=(self.origin[0], self.origin[1], 0.0),
+        )

@@ -1,0 +1,107 @@
+"""Wheel odometry with drift: each robot's pose estimate in its own start frame.
+
+The true motion between two steps is expressed in the robot's frame at the
+first of them, ``(dx, dy, dtheta)``; Gaussian noise whose standard deviation
+grows with the distance travelled and the angle turned is added, and the
+noisy increment is composed onto the estimate. The estimate starts at
+``(0, 0, 0)``: the start pose *is* the origin of the robot's map frame. The
+true pose is never used for anything but the increment.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+@dataclass(frozen=True)
+class OdometryConfig:
+    """Drift of the odometry, as standard deviations per unit of motion.
+
+    Attributes
+    ----------
+    translation_noise : float
+        Metres of position error per metre travelled (along and across).
+    rotation_noise : float
+        Radians of heading error per radian turned.
+    drift_per_metre : float
+        Radians of heading error per metre travelled (uneven wheels).
+    """
+
+    translation_noise: float = 0.01
+    rotation_noise: float = 0.01
+    drift_per_metre: float = 0.002
+
+    def __post_init__(self) -> None:
+        for name in ("translation_noise", "rotation_noise", "drift_per_metre"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a non-negative number, got {value}")
+
+
+def relative_motion(before: ArrayLike, after: ArrayLike) -> NDArray[np.float64]:
+    """``(dx, dy, dtheta)``: pose ``after`` seen from pose ``before`` (both ``(x, y, theta)``)."""
+    x0, y0, t0 = np.asarray(before, dtype=float)
+    x1, y1, t1 = np.asarray(after, dtype=float)
+    c, s = math.cos(t0), math.sin(t0)
+    dx, dy = x1 - x0, y1 - y0
+    dtheta = math.remainder(t1 - t0, 2 * math.pi)
+    return np.array([c * dx + s * dy, -s * dx + c * dy, dtheta])
+
+
+def compose(pose: ArrayLike, motion: ArrayLike) -> NDArray[np.float64]:
+    """Pose reached by applying ``motion = (dx, dy, dtheta)`` (robot frame) at ``pose``."""
+    x, y, theta = np.asarray(pose, dtype=float)
+    dx, dy, dtheta = np.asarray(motion, dtype=float)
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array(
+        [x + c * dx - s * dy, y + s * dx + c * dy, math.remainder(theta + dtheta, 2 * math.pi)]
+    )
+
+
+class Odometry:
+    """One robot's odometry.
+
+    Parameters
+    ----------
+    config : OdometryConfig
+        Noise levels.
+    true_pose : (3,) array_like
+        The robot's true pose at the start (world frame).
+    rng : numpy.random.Generator
+        This robot's own stream of randomness.
+    """
+
+    __slots__ = ("_last_true", "config", "pose", "rng")
+
+    def __init__(
+        self, config: OdometryConfig, true_pose: ArrayLike, rng: np.random.Generator
+    ) -> None:
+        self.config = config
+        self.rng = rng
+        self.pose = np.zeros(3)
+        self._last_true = np.asarray(true_pose, dtype=float).copy()
+
+    def update(self, true_pose: ArrayLike) -> NDArray[np.float64]:
+        """Advance the estimate by the noisy motion since the last call; returns it.
+
+        Draws exactly three normal variates per call, moving or not.
+        """
+        now = np.asarray(true_pose, dtype=float)
+        dx, dy, dtheta = relative_motion(self._last_true, now)
+        self._last_true = now.copy()
+        cfg = self.config
+        distance = math.hypot(dx, dy)
+        noise = self.rng.standard_normal(3)
+        sigma_xy = cfg.translation_noise * distance
+        sigma_theta = cfg.rotation_noise * abs(dtheta) + cfg.drift_per_metre * distance
+        noisy = (
+            dx + sigma_xy * noise[0],
+            dy + sigma_xy * noise[1],
+            dtheta + sigma_theta * noise[2],
+        )
+        self.pose = compose(self.pose, noisy)
+        return self.pose

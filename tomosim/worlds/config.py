@@ -1,0 +1,102 @@
+"""Configuration of the procedural floor-plan generator."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+MIN_EXTENT_ROOMS = 2
+"""The building must be at least this many smallest rooms wide."""
+
+
+@dataclass(frozen=True)
+class FloorplanConfig:
+    """Parameters of :func:`~tomosim.worlds.generate_floorplan`; lengths in metres.
+
+    Ranges ``(low, high)`` are drawn uniformly. The defaults give an office
+    floor of about 30 m x 20 m with rooms of 3-6.5 m, 1.6-2.4 m corridors and
+    0.9-1.3 m doors.
+    """
+
+    width: float = 30.0
+    height: float = 20.0
+    resolution: float = 0.05
+    margin: float = 1.0
+    """Unknown border around the building in the truth grid."""
+    wall_thickness: float = 0.15
+    corridor_width: tuple[float, float] = (1.6, 2.4)
+    room_width: tuple[float, float] = (3.0, 6.5)
+    """Extent of a room along the corridor it opens onto."""
+    min_room_depth: float = 3.0
+    door_width: tuple[float, float] = (0.9, 1.3)
+    split_probability: float = 0.5
+    """Chance that a room deeper than twice ``min_room_depth`` is split front/back."""
+    extra_door_probability: float = 0.35
+    """Chance of a door between two neighbouring rooms."""
+    side_door_probability: float = 0.5
+    """Chance that a room beside the side corridor opens onto it."""
+    notch_probability: float = 0.75
+    """Chance that a corner of the building is cut away."""
+    side_corridor_probability: float = 0.8
+    clutter_per_room: tuple[int, int] = (0, 3)
+    """Least and most pieces of furniture per room (inclusive)."""
+    clutter_length: tuple[float, float] = (0.5, 1.6)
+    clutter_width: tuple[float, float] = (0.4, 0.9)
+    robot_clearance: float = 0.3
+    """Clutter never cuts the free space apart for a disc of this radius."""
+
+    def __post_init__(self) -> None:
+        for name in (
+            "width",
+            "height",
+            "resolution",
+            "wall_thickness",
+            "min_room_depth",
+            "robot_clearance",
+        ):
+            value = getattr(self, name)
+            if not value > 0:
+                raise ValueError(f"{name} must be positive (metres), got {value}")
+        if self.margin < self.wall_thickness:
+            raise ValueError(
+                f"margin ({self.margin} m) must be at least the wall thickness "
+                f"({self.wall_thickness} m) so outer walls fit in the grid"
+            )
+        for name in (
+            "corridor_width",
+            "room_width",
+            "door_width",
+            "clutter_length",
+            "clutter_width",
+            "clutter_per_room",
+        ):
+            low, high = getattr(self, name)
+            if not 0 <= low <= high:
+                raise ValueError(
+                    f"{name} must be a range (low, high) with 0 <= low <= high, got {(low, high)}"
+                )
+        for name in (
+            "split_probability",
+            "extra_door_probability",
+            "side_door_probability",
+            "notch_probability",
+            "side_corridor_probability",
+        ):
+            value = getattr(self, name)
+            if not 0 <= value <= 1:
+                raise ValueError(f"{name} must be a probability in [0, 1], got {value}")
+        if self.width < MIN_EXTENT_ROOMS * self.room_width[0]:
+            raise ValueError(
+                f"width {self.width} m is too small: use at least "
+                f"{MIN_EXTENT_ROOMS * self.room_width[0]} m (two rooms)"
+            )
+        least_height = 2 * self.min_room_depth + self.corridor_width[1]
+        if self.height < least_height:
+            raise ValueError(
+                f"height {self.height} m is too small: use at least {least_height} m "
+                "(a room on each side of the widest corridor)"
+            )
+        if self.door_width[0] <= 2 * self.robot_clearance:
+            raise ValueError(
+                f"doors ({self.door_width[0]} m) must be wider than a robot "
+                f"({2 * self.robot_clearance} m)"
+            )
