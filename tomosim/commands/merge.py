@@ -1,0 +1,154 @@
+"""``tomosim merge``: merge ``map_server`` maps into one, or a generated demo pair.
+
+``tomosim merge a.yaml b.yaml [c.yaml ...] -o merged.yaml`` estimates the
+transform between every pair of maps, links them by a spanning tree of
+confident merges (:func:`merging.merge_all`), writes the fused map in
+``map_server`` format, and prints each map's transform into the fused map and
+the pairwise confidences (or JSON with ``--json``).
+
+``tomosim merge --demo [SEED] -o merged.yaml`` first writes two overlapping
+windows of a generated floor plan beside the output, the second rotated and
+shifted, merges them, and prints the true transform beside the estimate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from merging import OccupancyGrid, available_methods, load_map, merge_all, save_map
+from merging.api import DEFAULT_METHOD
+from tomosim.commands import CommandError, UsageError, one_line
+from tomosim.commands.demo_maps import DEMO_SEED, demo_pair
+from tomosim.commands.merge_report import render_table, summarise
+
+NAME = "merge"
+"""The subcommand's name."""
+HELP = "merge map_server maps (YAML + image) into one map"
+"""One line for ``tomosim --help``."""
+MAP_SUFFIXES = (".yaml", ".yml")
+"""Accepted suffixes of the output file: the image goes beside it with its own suffix."""
+DEFAULT_SEED = 0
+"""Seed of the merging methods' randomness unless ``--seed`` is given, so runs repeat."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the command's arguments on its subparser."""
+    parser.add_argument("maps", nargs="*", type=Path, help="two or more map_server YAML files")
+    parser.add_argument(
+        "-o", "--output", required=True, type=Path, help="YAML file to write the merged map to"
+    )
+    parser.add_argument(
+        "--method",
+        default=DEFAULT_METHOD,
+        help=f"merging method (default {DEFAULT_METHOD}; see merging.available_methods())",
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=DEFAULT_SEED,
+        help=f"seed for the methods' randomness (default {DEFAULT_SEED})",
+    )
+    parser.add_argument("--json", action="store_true", help="print the report as JSON")
+    parser.add_argument(
+        "--demo",
+        nargs="?",
+        type=int,
+        const=DEMO_SEED,
+        default=None,
+        metavar="SEED",
+        help=f"merge a generated demo pair (floor plan seed, default {DEMO_SEED}) instead of files",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Merge the maps named by ``args`` and print the report; returns the exit status."""
+    paths: list[Path] = list(args.maps)
+    output: Path = args.output
+    check_arguments(args, paths, output)
+    check_writable(output)
+    truth = None
+    if args.demo is not None:
+        paths, truth = write_demo(args.demo, output)
+    grids = [read_map(path) for path in paths]
+    try:
+        result = merge_all(grids, method=args.method, rng=args.seed)
+    except ValueError as exc:
+        raise CommandError(f"cannot merge: {one_line(exc)}") from exc
+    fused = result.fused.grid
+    if fused is None:  # load_map returns OccupancyGrids, so the fused map is one too
+        raise CommandError("the fused map lost its georeference")
+    try:
+        save_map(fused, output)
+    except OSError as exc:
+        raise CommandError(f"cannot write {output}: {one_line(exc.strerror or exc)}") from exc
+    summary = summarise(result, grids, paths, output, truth=truth)
+    print(json.dumps(summary, indent=2) if args.json else render_table(summary))
+    if result.unlinked:
+        left_out = ", ".join(str(paths[k]) for k in result.unlinked)
+        print(f"tomosim: warning: not merged (no confident link): {left_out}", file=sys.stderr)
+    return 0
+
+
+def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -> None:
+    """Raise :class:`UsageError` for a command line that cannot work."""
+    if args.demo is not None and paths:
+        raise UsageError("give either map files or --demo, not both")
+    if args.demo is None and len(paths) < 2:
+        raise UsageError(f"give at least two maps to merge (got {len(paths)}), or use --demo")
+    if args.demo is not None and args.demo < 0:
+        raise UsageError(f"--demo seed must be a non-negative integer, got {args.demo}")
+    if args.seed < 0:
+        raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
+    if args.method not in available_methods():
+        choices = ", ".join(available_methods()) or "none registered"
+        raise UsageError(f"unknown method {args.method!r}; choose one of: {choices}")
+    if output.suffix not in MAP_SUFFIXES:
+        raise UsageError(
+            f"output must be a .yaml file (the image is written beside it), got {output}"
+        )
+    target = output.resolve()
+    if any(path.resolve() == target for path in paths):
+        raise UsageError(f"output {output} is also an input; choose another output file")
+
+
+def check_writable(output: Path) -> None:
+    """Raise :class:`CommandError` unless ``output``'s folder exists or can be made and written."""
+    if output.is_dir():
+        raise CommandError(f"cannot write {output}: it is a directory")
+    folder = output.absolute().parent
+    while not folder.exists():
+        folder = folder.parent
+    if not folder.is_dir():
+        raise CommandError(f"cannot write {output}: {folder} is not a directory")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise CommandError(f"cannot write {output}: directory {folder} is not writable")
+
+
+def read_map(path: Path) -> OccupancyGrid:
+    """Load one map, turning every way a file can be bad into a :class:`CommandError`."""
+    try:
+        return load_map(path)
+    except FileNotFoundError as exc:
+        raise CommandError(one_line(exc)) from exc
+    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+        raise CommandError(f"cannot read map {path}: {one_line(exc)}") from exc
+
+
+def write_demo(seed: int, output: Path) -> tuple[list[Path], np.ndarray]:
+    """Write the demo pair beside ``output``; returns their paths and the true transform."""
+    map1, map2, truth = demo_pair(seed)
+    stem = output.with_suffix("")
+    paths = [stem.with_name(f"{stem.name}_demo{k}.yaml") for k in (1, 2)]
+    try:
+        for grid, path in zip((map1, map2), paths, strict=True):
+            save_map(grid, path)
+    except OSError as exc:
+        raise CommandError(f"cannot write the demo maps: {one_line(exc)}") from exc
+    return paths, truth
