@@ -32,7 +32,14 @@ from numpy.typing import NDArray
 from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
 from merging.api import register_method
 from merging.correlate import coarse_factor, coarsen, translation_peaks
-from merging.refine import SmoothedMap, constraint_strength, refine_transform
+from merging.refine import (
+    ITERATIONS,
+    SHARP_ITERATIONS,
+    SIGMA_SCHEDULE,
+    SmoothedMap,
+    constraint_strength,
+    refine_transform,
+)
 from merging.result import Hypothesis, MergeResult
 from merging.transforms import apply_transform
 from merging.verify import (
@@ -53,6 +60,13 @@ REFINED = 3
 """Best-verified hypotheses that are refined before the final choice."""
 CORRELATION_REFINED = 2
 """Hypotheses with the strongest correlation that are refined too."""
+KEEP_REFINED_MARGIN = 0.02
+"""Score by which a refined transform may verify worse than its start and still be
+kept: about one wall cell in fifty landing one cell farther out."""
+SHARPENED = 2
+"""Refined hypotheses, best first, that are refined on to convergence, the wide
+field continued and then the one-cell field: the others only need the wide
+field's first steps to be ranked below them."""
 SCREEN_STRIDE = 4
 """Hypotheses are screened with every fourth verification point (about 1000 per
 map), enough to rank them; the refined ones are verified with all."""
@@ -64,6 +78,28 @@ answers; closer ones are the same answer found twice."""
 def rank(check: Verification) -> float:
     """The score hypotheses are ranked by (:attr:`Verification.score`)."""
     return check.score
+
+
+def _refine_if_better(
+    smoothed: SmoothedMap,
+    first: PreparedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    sigmas: tuple[float, ...],
+    iterations: int = ITERATIONS,
+) -> tuple[Verification, NDArray[np.float64]]:
+    """Refine ``matrix``; keep the start only when the refined one verifies clearly worse.
+
+    Refinement may settle on a nearby optimum that explains the maps worse
+    (two close parallel walls blurred into one by a wide field). Within
+    :data:`KEEP_REFINED_MARGIN` the refined transform wins: verification
+    tolerates a cell of misfit, so it cannot rank finer than that.
+    """
+    better = refine_transform(smoothed, second, matrix, sigmas=sigmas, iterations=iterations)
+    before, after = verify(first, second, matrix), verify(first, second, better)
+    if rank(after) >= rank(before) - KEEP_REFINED_MARGIN:
+        return after, better
+    return before, matrix
 
 
 def _rms_between(a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]):
@@ -132,14 +168,16 @@ def tomographic_merge(
 
     clock = time.perf_counter()
     smoothed = SmoothedMap(first.walls, first.shape)
-    refined = []
-    for _, matrix in checked[: REFINED + CORRELATION_REFINED]:
-        better = refine_transform(smoothed, second, matrix)
-        # Refinement may settle on a nearby optimum that explains the maps worse
-        # (two close parallel walls blurred into one); keep whichever is better.
-        full = verify(first, second, better)
-        start = verify(first, second, matrix)
-        refined.append((full, better) if rank(full) >= rank(start) else (start, matrix))
+    wide = SIGMA_SCHEDULE[:-1]
+    refined = [
+        _refine_if_better(smoothed, first, second, m, wide)
+        for _, m in checked[: REFINED + CORRELATION_REFINED]
+    ]
+    refined.sort(key=lambda vm: -rank(vm[0]))
+    refined[:SHARPENED] = [
+        _refine_if_better(smoothed, first, second, m, SIGMA_SCHEDULE, SHARP_ITERATIONS)
+        for _, m in refined[:SHARPENED]
+    ]
     rest = [
         (verify(first, second, m), m)
         for _, m in checked[REFINED + CORRELATION_REFINED : REFINED + CORRELATION_REFINED + 3]
