@@ -171,6 +171,35 @@ def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str
     return "\n".join(lines)
 
 
+def plot_scaling(times: dict[str, dict[int, list[float]]], path: Path) -> None:
+    """Median time against map side, log-log, one line per method (needs matplotlib)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print('no plot: plotting needs matplotlib: pip install "tomosim[plot]"', file=sys.stderr)
+        return
+    fig, axis = plt.subplots(figsize=(5, 3.6))
+    for method, per_size in times.items():
+        sizes = sorted(per_size)
+        medians = [np.median(per_size[n]) * 1000 for n in sizes]
+        low = [np.percentile(per_size[n], 25) * 1000 for n in sizes]
+        high = [np.percentile(per_size[n], 75) * 1000 for n in sizes]
+        axis.plot(sizes, medians, marker="o", label=method)
+        axis.fill_between(sizes, low, high, alpha=0.2)
+    axis.set_xscale("log")
+    axis.set_yscale("log")
+    axis.set_xlabel("map side (cells)")
+    axis.set_ylabel("time per pair (ms)")
+    axis.axhline(50, color="grey", linestyle=":", linewidth=1)
+    axis.legend()
+    axis.set_title("merge time against map size")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--maps", nargs="+", default=list(DEFAULT_MAPS))
@@ -210,6 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     times = scaling(args.methods, args.sizes, args.size_repeats, args.seed) if args.sizes else {}
     report = markdown(summary, per_map, times, truth_psi)
     args.out.with_suffix(".md").write_text(report + "\n")
+    if times:
+        plot_scaling(times, args.out.with_suffix(".png"))
     if args.json:
         print(
             json.dumps(
