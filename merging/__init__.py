@@ -50,3 +50,6 @@ __all__ = [
 # Registering the methods: importing a module adds it to the registry.
 from merging import paper as _paper  # noqa: F401
 from merging import tomographic as _tomographic  # noqa: F401
+from merging.baselines import features as _features  # noqa: F401
+from merging.baselines import registration as _registration  # noqa: F401
+from merging.baselines import spectral as _spectral  # noqa: F401
