@@ -195,14 +195,14 @@ def tomographic_merge(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
     )
     accepted = score >= ACCEPT_CONFIDENCE
-    share = runner_up.net / max(best_check.net, 1e-9) if runner_up else 0.0
+    runner = "none" if runner_up is None else f"{runner_up.net:.0f}"
     reason = ""
     if not accepted:
         reason = (
             f"confidence {score:.2f} below {ACCEPT_CONFIDENCE}: agreement "
             f"{best_check.agreement:.2f}, conflict {best_check.conflict:.2f}, "
-            f"{best_check.agreeing:.0f} matching wall cells, runner-up explains "
-            f"{share:.2f} of the best's, constraint {strength:.1f}"
+            f"{best_check.agreeing:.0f} matching wall cells, net {best_check.net:.0f} "
+            f"against the runner-up's {runner}, constraint {strength:.1f}"
         )
     return MergeResult(
         matrix=best,
