@@ -57,7 +57,7 @@ class WindowPair:
     angle: float
 
 
-def _overlap(known1: NDArray[np.bool_], map2: NDArray[np.int8], truth: NDArray[np.float64]):
+def overlap_ratio(known1: NDArray[np.bool_], map2: NDArray[np.int8], truth: NDArray[np.float64]):
     """Mean over both windows of the fraction of their observed cells the other observes."""
     known2_in_1 = warp_cells(map2, truth, known1.shape) >= 0
     shared = np.count_nonzero(known1 & known2_in_1)
@@ -143,7 +143,7 @@ def cut_window_pairs(
         if not _rich_enough(map2, occupied_mask(map2), min_known_fraction):
             continue
         truth = rigid_matrix(-x1, -y1, 0.0) @ np.linalg.inv(whole_to_2)
-        ratio = _overlap(window1 >= 0, map2, truth)
+        ratio = overlap_ratio(window1 >= 0, map2, truth)
         if overlap_range[0] <= ratio <= overlap_range[1] and _shared_wall(window1, map2, truth):
             pairs.append(WindowPair(window1.copy(), map2, truth, ratio, angle))
     if len(pairs) < count:

@@ -19,7 +19,7 @@ from merging.baselines.spectral import (
     rotation_peaks,
     spectrum_shift,
 )
-from merging.metrics import acceptance_index, match_indices, matching_index, transform_error
+from merging.metrics import transform_error
 from merging.refine import SmoothedMap, constraint_strength
 from merging.transforms import apply_transform, rigid_matrix
 from merging.verify import confidence, prepare_map, verify
@@ -158,16 +158,6 @@ def test_verdict_refuses_a_wrong_transform(building: np.ndarray) -> None:
     wrong = verdict(building, building, rigid_matrix(60.0, 0.0, 0.0), method="x", timings=timings)
     assert right.accepted and not wrong.accepted
     assert wrong.reason.startswith("confidence")
-
-
-def test_match_indices_equal_the_separate_metrics(building: np.ndarray) -> None:
-    # The benchmark scores every answer with both indices from one warp.
-    map2, truth = turned(building, 25.0, (4.0, -6.0))
-    for matrix in (truth, rigid_matrix(3.0, 1.0, 0.02) @ truth, np.eye(3)):
-        assert match_indices(building, map2, matrix) == (
-            matching_index(building, map2, matrix),
-            acceptance_index(building, map2, matrix),
-        )
 
 
 def test_render_codes_walls_dark_free_light_unknown_grey() -> None:

@@ -5,8 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from merging.metrics import acceptance_index, as_matrix, matching_index, transform_error
+from merging.metrics import (
+    acceptance_index,
+    as_matrix,
+    match_indices,
+    matching_index,
+    transform_error,
+)
 from merging.transforms import rigid_matrix, rotation_about
+
+from .test_tomographic import turned
 
 EXACT = 1e-9
 """Ratios of cell counts and closed-form distances agree to floating-point rounding."""
@@ -74,6 +82,16 @@ def test_acceptance_index_ignores_unknown_cells() -> None:
     half = cells.copy()
     half[:, :10] = -1  # what is left still agrees exactly
     assert acceptance_index(cells, half, np.eye(3)) == pytest.approx(1.0, abs=EXACT)
+
+
+def test_match_indices_equal_the_separate_metrics(building: np.ndarray) -> None:
+    # The benchmark scores every answer with both indices from one warp.
+    map2, truth = turned(building, 25.0, (4.0, -6.0))
+    for matrix in (truth, rigid_matrix(3.0, 1.0, 0.02) @ truth, np.eye(3)):
+        assert match_indices(building, map2, matrix) == (
+            matching_index(building, map2, matrix),
+            acceptance_index(building, map2, matrix),
+        )
 
 
 def test_transform_error_of_the_truth_is_zero() -> None:
