@@ -17,6 +17,8 @@ schedule of ``sigma`` widens the basin first and sharpens the optimum last.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -24,9 +26,13 @@ from scipy import ndimage
 from merging.transforms import apply_transform, rotation_about
 from merging.verify import PreparedMap
 
-SIGMA_SCHEDULE = (2.0, 1.0)
+SIGMA_SCHEDULE = (2.0, 1.0, 0.6)
 """Field widths in cells, widest first: 2 cells catches a coarse estimate a few
-cells off; 1 cell pins the optimum to a fraction of a cell."""
+cells off; 1 cell pins the optimum to a fraction of a cell; 0.6 cell resolves
+the last tenth of a cell (the median error halves, to about 0.1 cell)."""
+CURVATURE_SIGMA = 1.0
+"""Field width on which :func:`constraint_strength` measures curvature (its
+scale, ``STRENGTH_SCALE`` in :mod:`merging.verify`, was set on this width)."""
 ITERATIONS = 5
 """Gauss-Newton steps per field width at most, by default."""
 SHARP_ITERATIONS = 10
@@ -48,9 +54,30 @@ rotation) ends a stage: far below the 2-cell accuracy asked for."""
 REFINE_POINTS = 1500
 """Map 2 cells moved per iteration: three unknowns need far fewer, but walls in
 every direction must be represented."""
+LOCAL_MARGIN = 4.0
+"""Cells beyond where map 2 lands that a local field covers: room for the
+last steps of a refinement that starts within a cell or so."""
 DOWNSAMPLE_FROM_SIGMA = 2.0
 """Fields at least this wide are computed on a grid of half resolution: a blur
 of two cells has nothing finer to keep, and it costs a quarter."""
+
+
+@dataclass(frozen=True, slots=True)
+class Field:
+    """Map 1's walls blurred at one width, over all of map 1 or a box of it.
+
+    Cell ``(x, y)`` of map 1 lies at ``((x - corner_x + 0.5) / scale + 0.5,
+    (y - corner_y + 0.5) / scale + 0.5)`` in ``image``, which has a border of
+    one zero cell.
+    """
+
+    image: NDArray[np.float32]
+    scale: float
+    corner: tuple[int, int] = (0, 0)
+
+    def locate(self, cells: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Image coordinates of ``(N, 2)`` cell coordinates of map 1."""
+        return (cells - np.asarray(self.corner)) / self.scale + (0.5 / self.scale + 0.5)
 
 
 class SmoothedMap:
@@ -69,27 +96,45 @@ class SmoothedMap:
     def __init__(self, walls: NDArray[np.float64], shape: tuple[int, int]) -> None:
         self._walls = walls
         self._shape = shape
-        self._fields: dict[float, tuple[NDArray[np.float32], float]] = {}
+        self._fields: dict[float, Field] = {}
 
-    def field(self, sigma: float) -> tuple[NDArray[np.float32], float]:
-        """The field at width ``sigma`` (cells) and its scale.
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)`` of map 1."""
+        return self._shape
 
-        Returns ``(image, scale)``: cell ``(x, y)`` of the map lies at
-        ``((x + 0.5) / scale + 0.5, (y + 0.5) / scale + 0.5)`` in ``image``,
-        which has a border of one zero cell.
+    def field(self, sigma: float, *, box: tuple[int, int, int, int] | None = None) -> Field:
+        """The field at width ``sigma`` (cells), over all of map 1 or over ``box``.
+
+        ``box = (x_lo, y_lo, x_hi, y_hi)`` in cells (exclusive upper bounds)
+        computes the field of that part only, uncached: cheaper when only
+        the overlap matters.
         """
-        if sigma not in self._fields:
-            scale = 2.0 if sigma >= DOWNSAMPLE_FROM_SIGMA else 1.0
-            rows, cols = (int(np.ceil(n / scale)) for n in self._shape)
-            image = np.zeros((rows, cols), dtype=np.float32)
-            cells = (self._walls // scale).astype(np.intp)
-            image[cells[:, 1], cells[:, 0]] = 1.0
-            width = sigma / scale
-            # Scaled so that the centre of a one-cell wall is about 1.
-            smooth = ndimage.gaussian_filter(image, width, truncate=3.0)
-            smooth *= np.float32(np.sqrt(2 * np.pi) * width)
-            self._fields[sigma] = (np.pad(np.minimum(smooth, 1.0), 1), scale)
-        return self._fields[sigma]
+        if box is None and sigma in self._fields:
+            return self._fields[sigma]
+        scale = 2.0 if sigma >= DOWNSAMPLE_FROM_SIGMA else 1.0
+        x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
+        rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
+        image = np.zeros((max(rows, 1), max(cols, 1)), dtype=np.float32)
+        walls = self._walls
+        if box is not None:
+            inside = (
+                (walls[:, 0] >= x_lo)
+                & (walls[:, 0] < x_hi)
+                & (walls[:, 1] >= y_lo)
+                & (walls[:, 1] < y_hi)
+            )
+            walls = walls[inside]
+        cells = ((walls - np.array([x_lo, y_lo])) // scale).astype(np.intp)
+        image[cells[:, 1], cells[:, 0]] = 1.0
+        width = sigma / scale
+        # Scaled so that the centre of a one-cell wall is about 1.
+        smooth = ndimage.gaussian_filter(image, width, truncate=3.0)
+        smooth *= np.float32(np.sqrt(2 * np.pi) * width)
+        field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo))
+        if box is None:
+            self._fields[sigma] = field
+        return field
 
 
 def _bilinear(
@@ -132,6 +177,7 @@ def refine_transform(
     *,
     sigmas: tuple[float, ...] = SIGMA_SCHEDULE,
     iterations: int = ITERATIONS,
+    local: bool = False,
 ) -> NDArray[np.float64]:
     """Refine ``matrix`` (map 2 cells -> map 1 cells) to sub-cell accuracy.
 
@@ -147,6 +193,9 @@ def refine_transform(
         Field widths to run, widest first.
     iterations : int
         Gauss-Newton steps per width at most.
+    local : bool
+        Blur only the part of map 1 where map 2's cells land (plus
+        :data:`LOCAL_MARGIN`): for a start already within a cell or so.
 
     Returns
     -------
@@ -157,13 +206,31 @@ def refine_transform(
     stride = max(1, int(np.ceil(len(second.points) / REFINE_POINTS)))
     points = second.points[::stride]
     for sigma in sigmas:
-        current = _gauss_newton(*smoothed.field(sigma), points, current, iterations)
+        box = _landing_box(current, points, smoothed, sigma) if local else None
+        if local and box is None:
+            return current
+        current = _gauss_newton(smoothed.field(sigma, box=box), points, current, iterations)
     return current
 
 
+def _landing_box(
+    matrix: NDArray[np.float64], points: NDArray[np.float64], smoothed: SmoothedMap, sigma: float
+) -> tuple[int, int, int, int] | None:
+    """Cells of map 1 where ``points`` land, grown by the blur and :data:`LOCAL_MARGIN`."""
+    rows, cols = smoothed.shape
+    landed = apply_transform(matrix, points)
+    margin = LOCAL_MARGIN + 3.0 * sigma
+    x_lo = max(int(np.floor(landed[:, 0].min() - margin)), 0)
+    y_lo = max(int(np.floor(landed[:, 1].min() - margin)), 0)
+    x_hi = min(int(np.ceil(landed[:, 0].max() + margin)) + 1, cols)
+    y_hi = min(int(np.ceil(landed[:, 1].max() + margin)) + 1, rows)
+    if x_hi <= x_lo or y_hi <= y_lo:
+        return None
+    return x_lo, y_lo, x_hi, y_hi
+
+
 def _gauss_newton(
-    field: NDArray[np.float32],
-    scale: float,
+    field: Field,
     points: NDArray[np.float64],
     start: NDArray[np.float64],
     iterations: int,
@@ -173,7 +240,7 @@ def _gauss_newton(
     A step that lowers ``Σ M`` is taken back and halved (at most
     :data:`BACKTRACKS` times in a row); the best transform seen is returned.
     """
-    offset = 0.5 / scale + 0.5
+    image, scale = field.image, field.scale
     best, best_total = start, -np.inf
     current = start
     step = np.zeros(3)
@@ -181,11 +248,11 @@ def _gauss_newton(
     halvings = 0
     for _ in range(iterations + BACKTRACKS):
         landed = apply_transform(current, points)
-        moved = landed / scale + offset
-        ok = _inside(moved, field)
+        moved = field.locate(landed)
+        ok = _inside(moved, image)
         if np.count_nonzero(ok) < 3:
             break
-        value, gx, gy = _bilinear(field, moved[ok, 0], moved[ok, 1])
+        value, gx, gy = _bilinear(image, moved[ok, 0], moved[ok, 1])
         total = float(value.sum())
         if total <= best_total:
             if halvings == BACKTRACKS:
@@ -237,12 +304,9 @@ def constraint_strength(
     near zero when the overlap is one straight wall that lets map 2 slide or
     turn.
     """
-    field, scale = smoothed.field(SIGMA_SCHEDULE[-1])
+    field = smoothed.field(CURVATURE_SIGMA)
     stride = max(1, int(np.ceil(len(second.points) / REFINE_POINTS)))
     points = second.points[::stride]
-    to_field = np.array(
-        [[1 / scale, 0, 0.5 / scale + 0.5], [0, 1 / scale, 0.5 / scale + 0.5], [0, 0, 1]]
-    )
     landed = apply_transform(matrix, points)
     pivot = landed.mean(axis=0)
     rel = landed - pivot
@@ -254,7 +318,7 @@ def constraint_strength(
     def objective(delta: NDArray[np.float64]) -> float:
         update = rotation_about(delta[2], pivot)
         update[:2, 2] += delta[:2]
-        return _objective(field, apply_transform(to_field @ update @ matrix, points))
+        return _objective(field.image, field.locate(apply_transform(update @ matrix, points)))
 
     centre = objective(np.zeros(3))
     hessian = np.zeros((3, 3))

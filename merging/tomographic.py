@@ -64,9 +64,9 @@ KEEP_REFINED_MARGIN = 0.02
 """Score by which a refined transform may verify worse than its start and still be
 kept: about one wall cell in fifty landing one cell farther out."""
 SHARPENED = 2
-"""Refined hypotheses, best first, that are refined on to convergence, the wide
-field continued and then the one-cell field: the others only need the wide
-field's first steps to be ranked below them."""
+"""Refined hypotheses, best first, that are refined on to the one-cell field:
+the others only need the widest field's first steps to be ranked below them,
+and only the winner is taken to the finest field."""
 SCREEN_STRIDE = 4
 """Hypotheses are screened with every fourth verification point (about 1000 per
 map), enough to rank them; the refined ones are verified with all."""
@@ -87,6 +87,8 @@ def _refine_if_better(
     matrix: NDArray[np.float64],
     sigmas: tuple[float, ...],
     iterations: int = ITERATIONS,
+    *,
+    local: bool = False,
 ) -> tuple[Verification, NDArray[np.float64]]:
     """Refine ``matrix``; keep the start only when the refined one verifies clearly worse.
 
@@ -95,7 +97,9 @@ def _refine_if_better(
     :data:`KEEP_REFINED_MARGIN` the refined transform wins: verification
     tolerates a cell of misfit, so it cannot rank finer than that.
     """
-    better = refine_transform(smoothed, second, matrix, sigmas=sigmas, iterations=iterations)
+    better = refine_transform(
+        smoothed, second, matrix, sigmas=sigmas, iterations=iterations, local=local
+    )
     before, after = verify(first, second, matrix), verify(first, second, better)
     if rank(after) >= rank(before) - KEEP_REFINED_MARGIN:
         return after, better
@@ -167,15 +171,17 @@ def tomographic_merge(
     timings["verify"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
+    # Refinement in three rounds, each on fewer candidates and finer fields:
+    # all on the widest field, the finalists on to one cell, the winner to the end.
     smoothed = SmoothedMap(first.walls, first.shape)
-    wide = SIGMA_SCHEDULE[:-1]
+    widest, finest = SIGMA_SCHEDULE[:1], SIGMA_SCHEDULE[-1:]
     refined = [
-        _refine_if_better(smoothed, first, second, m, wide)
+        _refine_if_better(smoothed, first, second, m, widest)
         for _, m in checked[: REFINED + CORRELATION_REFINED]
     ]
     refined.sort(key=lambda vm: -rank(vm[0]))
     refined[:SHARPENED] = [
-        _refine_if_better(smoothed, first, second, m, SIGMA_SCHEDULE, SHARP_ITERATIONS)
+        _refine_if_better(smoothed, first, second, m, SIGMA_SCHEDULE[1:-1], SHARP_ITERATIONS)
         for _, m in refined[:SHARPENED]
     ]
     rest = [
@@ -183,6 +189,9 @@ def tomographic_merge(
         for _, m in checked[REFINED + CORRELATION_REFINED : REFINED + CORRELATION_REFINED + 3]
     ]
     pool = sorted(refined + rest, key=lambda vm: -rank(vm[0]))
+    pool[0] = _refine_if_better(
+        smoothed, first, second, pool[0][1], finest, SHARP_ITERATIONS, local=True
+    )
     timings["refine"] = time.perf_counter() - clock
 
     best_check, best = pool[0]
