@@ -1,0 +1,127 @@
+"""What defines an episode: the world it explores and its settings.
+
+A world is named by a generated floor plan's seed or a ``map_server`` YAML
+file (:func:`load_world`); :class:`EpisodeConfig` holds everything else.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from merging import available_methods
+from merging.api import DEFAULT_METHOD
+from tomosim.simulation import SimulationConfig
+from tomosim.worlds import World, generate_floorplan, world_from_map
+
+DEFAULT_WORLD_SEED = 0
+"""Seed of the generated floor plan explored by default."""
+
+
+def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = None) -> World:
+    """The world named by ``spec``: a generated floor plan's seed, or a map_server YAML file.
+
+    Parameters
+    ----------
+    spec : int, str or Path
+        A non-negative integer (or a string of digits) is the seed of
+        :func:`~tomosim.worlds.generate_floorplan`; anything else is the path
+        of a ``map_server`` YAML file (:func:`~tomosim.worlds.world_from_map`).
+    size : (float, float), optional
+        Width and height in metres of a generated floor plan (default 30 x 20).
+
+    Raises
+    ------
+    FileNotFoundError
+        If the map file does not exist.
+    ValueError
+        If the seed is negative or the map file cannot be read.
+    """
+    if isinstance(spec, str) and spec.strip().isdigit():
+        spec = int(spec)
+    if isinstance(spec, int | np.integer) and not isinstance(spec, bool):
+        if spec < 0:
+            raise ValueError(f"a world seed must be a non-negative integer, got {spec}")
+        width, height = size if size is not None else (None, None)
+        return generate_floorplan(int(spec), width=width, height=height)
+    if not isinstance(spec, str | Path):
+        raise TypeError(f"world must be a seed or a map file path, got {type(spec).__name__}")
+    path = Path(spec)
+    if not path.is_file():
+        raise FileNotFoundError(f"map file not found: {path}")
+    return world_from_map(path)
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """Everything that defines an episode.
+
+    Attributes
+    ----------
+    world : int, str or Path
+        A generated floor plan's seed or a map_server YAML file (:func:`load_world`).
+    world_size : (float, float) or None
+        Width and height in metres of a generated floor plan (None: 30 x 20).
+    robots : int
+        Number of robots.
+    steps : int
+        Most steps to run (0.1 s of simulated time each).
+    merge : bool
+        Whether the robots' maps are merged.
+    merge_interval : int
+        Steps between merge rounds.
+    method : str
+        Merging method.
+    coverage_target : float
+        Fraction of the free space at which the episode ends.
+    seed : int
+        Seed of everything random in the episode (start poses, sensors, merging).
+    record : Path or None
+        ``.rrd`` file to record the episode to (None: no recording).
+    simulation : SimulationConfig
+        Robots, lidar, odometry and mapping (defaults as documented there).
+    """
+
+    world: int | str | Path = DEFAULT_WORLD_SEED
+    world_size: tuple[float, float] | None = None
+    robots: int = 3
+    steps: int = 1500
+    merge: bool = True
+    merge_interval: int = 50
+    method: str = DEFAULT_METHOD
+    coverage_target: float = 0.9
+    seed: int = 0
+    record: Path | None = None
+    simulation: SimulationConfig = field(default_factory=SimulationConfig)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.robots, int | np.integer) and self.robots >= 1):
+            raise ValueError(f"robots must be a whole number >= 1, got {self.robots!r}")
+        for name in ("steps", "merge_interval"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | np.integer) and value >= 1):
+                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
+        if not (isinstance(self.seed, int | np.integer) and self.seed >= 0):
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if not (0.0 < self.coverage_target <= 1.0):
+            raise ValueError(f"coverage_target must be in (0, 1], got {self.coverage_target}")
+        if self.method not in available_methods():
+            choices = ", ".join(available_methods())
+            raise ValueError(f"unknown merging method {self.method!r}; choose one of: {choices}")
+
+    def settings(self, world: World) -> dict[str, Any]:
+        """Plain values describing the episode (recorded with it and printed in reports)."""
+        return {
+            "world": world.name,
+            "world_spec": str(self.world),
+            "robots": int(self.robots),
+            "steps": int(self.steps),
+            "merge": bool(self.merge),
+            "merge_interval": int(self.merge_interval),
+            "method": self.method,
+            "coverage_target": float(self.coverage_target),
+            "seed": int(self.seed),
+        }

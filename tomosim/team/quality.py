@@ -1,0 +1,229 @@
+"""How right a merge is: estimated against true relative transforms between robots' map frames.
+
+Each robot's map frame is its true start pose, which only the simulator knows.
+The true transform taking robot ``j``'s map frame to robot ``i``'s, in metres,
+is ``inv(P_i) @ P_j`` with ``P_k = pose_matrix(start_k)``; a merge estimates the
+same transform from the two grids alone (``MergeResult.matrix_metres``).
+
+The errors compare the two transforms as poses ``(x, y, yaw)`` of frame ``j``
+in frame ``i``:
+
+* **rotation error**: ``|wrap(yaw_est - yaw_true)|`` in degrees, in ``[0, 180]``;
+* **translation error**: ``|t_est - t_true|`` in metres, the distance between
+  where the estimate and the truth put robot ``j``'s start position in robot
+  ``i``'s frame.
+
+Both grids are built at drifting odometry poses, so even a merge that lays the
+two grids perfectly over each other keeps an error of the order of the drift.
+
+:func:`merged_agreement` scores a merged map as a whole against the ground truth.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from merging.grid import OccupancyGrid
+from merging.metrics import acceptance_index, matching_index
+from merging.result import MergeResult
+from merging.transforms import matrix_to_pose
+from tomosim.frames import pose_matrix
+
+TRUTH_WINDOW_MARGIN = 2
+"""Cells of truth kept around the merged map's footprint when comparing the two;
+the comparison only counts cells both know, so the window only saves time."""
+NO_ESTIMATE = math.inf
+"""Error reported when a method returned no finite transform: larger than any real error."""
+
+
+def robot_name(index: int) -> str:
+    """Short name of robot ``index`` in reports and recordings: ``"r0"``, ``"r1"``, ..."""
+    return f"r{index}"
+
+
+def _triple(values: ArrayLike) -> tuple[float, float, float]:
+    """Three numbers as a tuple of floats."""
+    x, y, yaw = (float(v) for v in np.asarray(values, dtype=float))
+    return (x, y, yaw)
+
+
+def true_relative(start_i: ArrayLike, start_j: ArrayLike) -> NDArray[np.float64]:
+    """The 3x3 rigid matrix taking robot ``j``'s map frame to robot ``i``'s (metres).
+
+    Parameters
+    ----------
+    start_i, start_j : (3,) array_like
+        True start poses ``(x, y, theta)`` in the world (metres, radians).
+    """
+    return np.asarray(np.linalg.inv(pose_matrix(start_i)) @ pose_matrix(start_j), dtype=np.float64)
+
+
+def frame_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[float, float]:
+    """``(rotation_deg, translation_m)`` between two frame transforms (module docstring).
+
+    Returns ``(inf, inf)`` when ``estimate`` is not a finite 3x3 matrix.
+    """
+    est = np.asarray(estimate, dtype=float)
+    ref = np.asarray(truth, dtype=float)
+    if ref.shape != (3, 3) or not np.all(np.isfinite(ref)):
+        raise ValueError(f"truth must be a finite 3x3 matrix, got shape {ref.shape}")
+    if est.shape != (3, 3) or not np.all(np.isfinite(est)):
+        return NO_ESTIMATE, NO_ESTIMATE
+    turn = math.remainder(matrix_to_pose(est)[2] - matrix_to_pose(ref)[2], 2 * math.pi)
+    shift = float(np.hypot(*(est[:2, 2] - ref[:2, 2])))
+    return abs(math.degrees(turn)), shift
+
+
+@dataclass(frozen=True, slots=True)
+class PairQuality:
+    """One pairwise estimate of a merge round against the truth.
+
+    Attributes
+    ----------
+    first, second : int
+        Robots ``i < j``; the transform takes ``second``'s map frame to ``first``'s.
+    accepted : bool
+        The merger vouched for the estimate.
+    confirmed : bool
+        Accepted in enough consecutive rounds with consistent estimates
+        (:class:`~tomosim.team.merger.TeamMerger`); only confirmed estimates
+        link maps.
+    used : bool
+        The estimate is an edge of the spanning forest that links the maps.
+    confidence : float
+        The merger's confidence in ``[0, 1]``.
+    matching_index : float
+        Eq. (31) of the paper: occupied cells shared after the estimated
+        transform over the occupied cells of the overlap (0 when none).
+    estimate, truth : (float, float, float)
+        Pose ``(x, y, yaw)`` of ``second``'s map frame in ``first``'s, metres
+        and radians, as estimated and as true.
+    rotation_error_deg, translation_error_m : float
+        As in the module docstring (``inf`` without a finite estimate).
+    reason : str
+        Why the merger did not accept the estimate (empty when accepted).
+    """
+
+    first: int
+    second: int
+    accepted: bool
+    confirmed: bool
+    used: bool
+    confidence: float
+    matching_index: float
+    estimate: tuple[float, float, float]
+    truth: tuple[float, float, float]
+    rotation_error_deg: float
+    translation_error_m: float
+    reason: str = ""
+
+    @property
+    def name(self) -> str:
+        """``"r0-r1"``: the pair's name in reports and recordings."""
+        return f"{robot_name(self.first)}-{robot_name(self.second)}"
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain values (for infos and JSON); non-finite numbers stay floats."""
+        return {
+            "accepted": self.accepted,
+            "confirmed": self.confirmed,
+            "used": self.used,
+            "confidence": self.confidence,
+            "matching_index": self.matching_index,
+            "rotation_error_deg": self.rotation_error_deg,
+            "translation_error_m": self.translation_error_m,
+            "estimate": self.estimate,
+            "truth": self.truth,
+            "reason": self.reason,
+        }
+
+
+def pair_quality(
+    result: MergeResult,
+    grids: tuple[OccupancyGrid, OccupancyGrid],
+    starts: tuple[ArrayLike, ArrayLike],
+    *,
+    pair: tuple[int, int],
+    confirmed: bool,
+    used: bool,
+) -> PairQuality:
+    """Score one pairwise :class:`~merging.result.MergeResult` against the truth.
+
+    Parameters
+    ----------
+    result : MergeResult
+        The estimate for ``pair = (i, j)``: its matrix takes grid ``j``'s cells to
+        grid ``i``'s, and ``matrix_metres`` frame ``j`` to frame ``i``.
+    grids : (OccupancyGrid, OccupancyGrid)
+        Grids ``i`` and ``j`` as merged.
+    starts : (array_like, array_like)
+        True start poses of robots ``i`` and ``j``.
+    pair : (int, int)
+        ``(i, j)`` with ``i < j``.
+    confirmed : bool
+        Whether the estimate counts as confirmed (see :class:`PairQuality`).
+    used : bool
+        Whether the estimate links the maps (an edge of the spanning forest).
+    """
+    i, j = pair
+    if not i < j:
+        raise ValueError(f"pair must be (i, j) with i < j, got {pair}")
+    truth = true_relative(*starts)
+    metres = result.matrix_metres
+    estimate = np.full((3, 3), np.nan) if metres is None else np.asarray(metres, dtype=np.float64)
+    rotation, translation = frame_errors(estimate, truth)
+    finite = bool(np.all(np.isfinite(result.matrix)))
+    overlap = matching_index(grids[0].data, grids[1].data, result.matrix) if finite else 0.0
+    pose = matrix_to_pose(estimate) if np.all(np.isfinite(estimate)) else (NO_ESTIMATE,) * 3
+    return PairQuality(
+        first=i,
+        second=j,
+        accepted=bool(result.accepted),
+        confirmed=confirmed,
+        used=used,
+        confidence=float(result.confidence),
+        matching_index=float(overlap),
+        estimate=_triple(pose),
+        truth=_triple(matrix_to_pose(truth)),
+        rotation_error_deg=rotation,
+        translation_error_m=translation,
+        reason=result.reason,
+    )
+
+
+def merged_agreement(
+    merged: OccupancyGrid, truth: OccupancyGrid, reference_start: ArrayLike
+) -> float:
+    """Acceptance index of the merged map against the ground truth.
+
+    The merged map is placed in the world by the true start pose of the robot
+    whose frame it is in, then compared cell by cell with the truth grid
+    (:func:`merging.acceptance_index`: over the cells both know, the fraction
+    that agree on occupied/free). 1 means no wall where the truth is free and
+    no free cell where the truth has a wall; 0 without overlap.
+    """
+    into_truth = (
+        np.linalg.inv(truth.cell_to_world_matrix())
+        @ pose_matrix(reference_start)
+        @ merged.cell_to_world_matrix()
+    )
+    rows, cols = merged.shape
+    corners = np.array(
+        [[-0.5, -0.5, 1], [cols - 0.5, -0.5, 1], [-0.5, rows - 0.5, 1], [cols - 0.5, rows - 0.5, 1]]
+    )
+    moved = (corners @ into_truth.T)[:, :2]
+    low = np.floor(moved.min(axis=0)).astype(int) - TRUTH_WINDOW_MARGIN
+    high = np.ceil(moved.max(axis=0)).astype(int) + TRUTH_WINDOW_MARGIN
+    truth_rows, truth_cols = truth.shape
+    x0, y0 = max(int(low[0]), 0), max(int(low[1]), 0)
+    x1, y1 = min(int(high[0]), truth_cols - 1), min(int(high[1]), truth_rows - 1)
+    if x0 > x1 or y0 > y1:
+        return 0.0
+    window = truth.data[y0 : y1 + 1, x0 : x1 + 1]
+    shift = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
+    return acceptance_index(window, merged.data, shift @ into_truth)

@@ -1,0 +1,198 @@
+"""A team exploring together: the simulation, periodic merging, shared maps and coverage.
+
+:class:`TeamSession` is what both the PettingZoo environment and the episode
+runner drive. One :meth:`TeamSession.step`
+
+1. advances the simulation under the robots' commands;
+2. updates the team coverage and credits each robot with the free space the
+   team knows for the first time (:mod:`tomosim.team.coverage`);
+3. every ``merge_interval`` steps, when merging is on, runs a merge round
+   (:class:`~tomosim.team.merger.TeamMerger`) and adopts its links;
+4. rebuilds the teammate layers that are due (:mod:`tomosim.team.sharing`).
+
+All randomness comes from the generator given at construction: one stream
+for the simulation (start poses, odometry, lidar) and one for the merger.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from merging import available_methods
+from merging.api import DEFAULT_METHOD
+from merging.grid import OccupancyGrid
+from tomosim.simulation import Simulation, SimulationConfig
+from tomosim.team.coverage import TeamCoverage
+from tomosim.team.merger import TeamMerge, TeamMerger
+from tomosim.team.sharing import SharedMaps
+from tomosim.worlds.world import RngLike, World, as_generator
+
+
+@dataclass(frozen=True)
+class TeamConfig:
+    """How a team explores: merging and map sharing.
+
+    Attributes
+    ----------
+    merge : bool
+        Whether the robots' maps are merged at all.
+    method : str
+        Merging method (:func:`merging.available_methods`).
+    merge_interval : int
+        Steps between merge rounds.
+    confirmations : int
+        Consecutive rounds that must accept consistent estimates of a pair
+        before the pair links maps (:class:`~tomosim.team.merger.TeamMerger`).
+    share_interval : int
+        Steps between updates of a linked robot's view of its teammates' maps.
+    simulation : SimulationConfig
+        Robots, lidar, odometry and mapping.
+    """
+
+    merge: bool = True
+    method: str = DEFAULT_METHOD
+    merge_interval: int = 50
+    confirmations: int = 2
+    share_interval: int = 10
+    simulation: SimulationConfig = field(default_factory=SimulationConfig)
+
+    def __post_init__(self) -> None:
+        if self.method not in available_methods():
+            choices = ", ".join(available_methods())
+            raise ValueError(f"unknown merging method {self.method!r}; choose one of: {choices}")
+        for name in ("merge_interval", "confirmations", "share_interval"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | np.integer) and value >= 1):
+                raise ValueError(f"{name} must be a whole number of steps >= 1, got {value!r}")
+
+
+class TeamSession:
+    """Robots exploring one world as a team (steps 1-4 of the module docstring).
+
+    Parameters
+    ----------
+    world : World
+        The world.
+    robots : int
+        Number of robots, placed at random free poses with random headings.
+    config : TeamConfig, optional
+        Defaults as documented there.
+    rng : numpy.random.Generator, int or None
+        The session's only source of randomness.
+
+    Attributes
+    ----------
+    simulation : Simulation
+    coverage : TeamCoverage
+    shared : SharedMaps
+    merger : TeamMerger or None
+        None when merging is off.
+    last_merge : TeamMerge or None
+        The latest merge round.
+    rewards : (N,) float ndarray
+        Square metres of free space each robot discovered for the team at the
+        last step.
+    """
+
+    __slots__ = (
+        "_grids",
+        "config",
+        "coverage",
+        "last_merge",
+        "merger",
+        "rewards",
+        "shared",
+        "simulation",
+    )
+
+    def __init__(
+        self,
+        world: World,
+        *,
+        robots: int,
+        config: TeamConfig | None = None,
+        rng: RngLike = None,
+    ) -> None:
+        self.config = config if config is not None else TeamConfig()
+        sim_rng, merge_rng = as_generator(rng).spawn(2)
+        self.simulation = Simulation(
+            world, robots=robots, config=self.config.simulation, rng=sim_rng
+        )
+        count = self.simulation.count
+        self.merger = (
+            TeamMerger(
+                method=self.config.method,
+                interval=self.config.merge_interval,
+                confirmations=self.config.confirmations,
+                rng=merge_rng,
+            )
+            if self.config.merge
+            else None
+        )
+        self.shared = SharedMaps(count, refresh_interval=self.config.share_interval)
+        self.coverage = TeamCoverage(
+            world,
+            self.simulation.start_poses,
+            resolution=self.config.simulation.mapping.resolution,
+            reach=self.config.simulation.lidar.max_range,
+        )
+        self.last_merge: TeamMerge | None = None
+        self._grids: list[OccupancyGrid] | None = None
+        self.rewards = self.coverage.update(self.grids(), self._positions())
+
+    @property
+    def count(self) -> int:
+        """Number of robots."""
+        return self.simulation.count
+
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+        return self.simulation.steps
+
+    @property
+    def world(self) -> World:
+        """The world explored."""
+        return self.simulation.world
+
+    def grids(self) -> list[OccupancyGrid]:
+        """Each robot's own grid in its map frame (read-only, cached for the current step)."""
+        if self._grids is None:
+            self._grids = [self.simulation.grid(k) for k in range(self.count)]
+        return self._grids
+
+    def step(self, commands: ArrayLike) -> TeamMerge | None:
+        """Advance one step (module docstring); returns the merge round run, if any."""
+        self.simulation.step(commands)
+        self._grids = None
+        grids = self.grids()
+        self.rewards = self.coverage.update(grids, self._positions())
+        merge = None
+        if self.merger is not None and self.merger.due(self.steps):
+            merge = self.merger.merge(
+                self.steps, grids, starts=self.simulation.start_poses, truth=self.world.truth
+            )
+            self.last_merge = merge
+            self.shared.link(merge)
+        self.shared.refresh(self.steps, grids)
+        return merge
+
+    def _positions(self) -> NDArray[np.float64]:
+        """``(N, 2)`` estimated positions, each in its robot's map frame."""
+        return self.simulation.odometry_poses[:, :2]
+
+    def linked(self, robot: int) -> bool:
+        """Whether robot ``robot``'s best map includes teammates' maps."""
+        return bool(self.shared.teammates(robot))
+
+    def best_map(self, robot: int) -> OccupancyGrid:
+        """Robot ``robot``'s best map, in its own map frame (:mod:`tomosim.team.sharing`)."""
+        return self.shared.best_grid(robot, self.grids())
+
+    def best_crop(self, robot: int, *, size: int, pool: int) -> NDArray[np.int8]:
+        """A window of the best map around the robot's pose estimate (:meth:`SharedMaps.crop`)."""
+        pose = self.simulation.odometry[robot].pose
+        return self.shared.crop(robot, self.grids(), pose[:2], size=size, pool=pool)
