@@ -1,0 +1,120 @@
+"""The summary ``tomosim explore`` prints, and the per-pair tables ``tomosim review`` shares.
+
+Both commands describe merge rounds the same way: per pair, how many of the
+rounds' estimates the merger accepted and how many were confirmed (and so
+used), and the rotation and translation errors of the accepted ones against
+the simulator's truth (:mod:`tomosim.team.quality`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tomosim.episode import EpisodeMetrics
+
+
+@dataclass(frozen=True, slots=True)
+class PairSummary:
+    """One pair's merge figures over an episode.
+
+    ``accepted_errors`` and ``confirmed_errors`` hold ``(rotation_deg,
+    translation_m)`` of the estimates the merger accepted, and of those also
+    confirmed (the ones that linked maps).
+    """
+
+    name: str
+    rounds: int
+    accepted_errors: tuple[tuple[float, float], ...]
+    confirmed_errors: tuple[tuple[float, float], ...]
+
+
+def summarise_pairs(
+    rows: Sequence[tuple[str, bool, bool, float, float]],
+) -> list[PairSummary]:
+    """Group ``(pair, accepted, confirmed, rotation_deg, translation_m)`` rows by pair."""
+    out = []
+    for name in sorted({row[0] for row in rows}):
+        mine = [row for row in rows if row[0] == name]
+        out.append(
+            PairSummary(
+                name=name,
+                rounds=len(mine),
+                accepted_errors=tuple((row[3], row[4]) for row in mine if row[1]),
+                confirmed_errors=tuple((row[3], row[4]) for row in mine if row[1] and row[2]),
+            )
+        )
+    return out
+
+
+def _stats(values: Sequence[float], digits: int) -> str:
+    """``median / max`` of finite ``values`` (``-`` when there are none)."""
+    finite = [v for v in values if math.isfinite(v)]
+    if not finite:
+        return "-"
+    return f"{float(np.median(finite)):.{digits}f} / {max(finite):.{digits}f}"
+
+
+def pair_table(pairs: Sequence[PairSummary]) -> str:
+    """Per pair, the accepted and the confirmed estimates and their errors against the truth."""
+    lines = [
+        f"{'pair':<7}{'estimates':<11}{'count':>7}"
+        f"{'rotation err [deg]':>22}{'translation err [m]':>22}",
+        f"{'':<25}{'median / max':>22}{'median / max':>22}",
+    ]
+    for p in pairs:
+        for label, errors in (("accepted", p.accepted_errors), ("confirmed", p.confirmed_errors)):
+            lines.append(
+                f"{p.name:<7}{label:<11}{f'{len(errors)}/{p.rounds}':>7}"
+                f"{_stats([e[0] for e in errors], 2):>22}{_stats([e[1] for e in errors], 3):>22}"
+            )
+    return "\n".join(lines)
+
+
+def episode_rows(metrics: EpisodeMetrics) -> list[tuple[str, bool, bool, float, float]]:
+    """The ``(pair, accepted, confirmed, rotation, translation)`` rows of every round."""
+    return [
+        (p.name, p.accepted, p.confirmed, p.rotation_error_deg, p.translation_error_m)
+        for merge in metrics.merges
+        for p in merge.pairs
+    ]
+
+
+def render_summary(metrics: EpisodeMetrics) -> str:
+    """The text ``tomosim explore`` ends with."""
+    s = metrics.settings
+    merging = (
+        f"merging every {s['merge_interval']} steps ({s['method']})" if s["merge"] else "no merging"
+    )
+    target = metrics.steps_to(float(s["coverage_target"]))
+    reached = "not reached" if target is None else f"reached at step {target}"
+    lines = [
+        f"world {s['world']}, {s['robots']} robots, {merging}, seed {s['seed']}",
+        "",
+        f"{'steps':<18}{metrics.steps} ({metrics.sim_seconds:.1f} s simulated, "
+        f"{metrics.wall_seconds:.1f} s wall clock)",
+        f"{'stopped':<18}{metrics.stop_reason}",
+        f"{'team coverage':<18}{metrics.coverage:.3f} "
+        f"(target {s['coverage_target']:.2f} {reached})",
+    ]
+    if metrics.merges:
+        rows = episode_rows(metrics)
+        accepted = sum(1 for row in rows if row[1])
+        confirmed = sum(1 for row in rows if row[2])
+        last = metrics.merges[-1]
+        merged = ", ".join(f"r{k}" for k in last.merged_robots)
+        lines += [
+            f"{'merge rounds':<18}{len(metrics.merges)}: {accepted} of {len(rows)} pair "
+            f"estimates accepted, {confirmed} confirmed and used",
+            f"{'merged map':<18}{merged}; agreement with the truth {last.agreement:.3f}",
+        ]
+    drift = "; ".join(f"r{k} {h:.2f} deg {p:.2f} m" for k, (h, p) in enumerate(metrics.drift))
+    lines.append(f"{'odometry drift':<18}{drift}")
+    if metrics.merges:
+        lines += ["", pair_table(summarise_pairs(episode_rows(metrics)))]
+    if metrics.record is not None:
+        lines += ["", f"recording: {metrics.record} (view: rerun {metrics.record})"]
+    return "\n".join(lines)

@@ -1,0 +1,175 @@
+"""``tomosim review RUN.rrd``: read a recording back and summarise it.
+
+The recording is read with rerun's own reader (:func:`tomosim.recording.read_recording`).
+The command prints the merge-quality timeline (per merge round and pair: the
+confidence, whether the merger accepted and confirmed the estimate, and the
+errors of accepted estimates against the simulator's truth, with the merged
+map's agreement with the truth), then the final figures, and writes a PNG:
+the final merged map beside the ground truth, the error curves and the
+coverage curve (``--png``, default ``RUN_summary.png`` beside the recording).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from tomosim.commands import CommandError, UsageError, one_line
+from tomosim.commands.explore_report import pair_table, summarise_pairs
+from tomosim.recording import RecordedRun, read_recording
+from tomosim.recording.paths import AGREEMENT
+
+NAME = "review"
+"""The subcommand's name."""
+HELP = "summarise a tomosim .rrd recording: merge-quality timeline, final figures, PNG"
+"""One line for ``tomosim --help``."""
+PNG_SUFFIX = "_summary.png"
+"""The default PNG is the recording's name with this ending."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the command's arguments on its subparser."""
+    parser.add_argument("recording", type=Path, help="a .rrd file written by tomosim explore")
+    parser.add_argument(
+        "--png", type=Path, default=None, help=f"summary image (default RUN{PNG_SUFFIX})"
+    )
+    parser.add_argument("--no-png", action="store_true", help="do not write the summary image")
+    parser.add_argument("--json", action="store_true", help="print the timeline as JSON")
+
+
+def _number(value: float | None) -> float | None:
+    """JSON-safe: non-finite numbers become None."""
+    return value if value is not None and math.isfinite(value) else None
+
+
+def timeline(run: RecordedRun) -> list[dict[str, Any]]:
+    """Per merge round: its step, the merged map's agreement and each pair's figures."""
+    agreement = run.series.get(AGREEMENT)
+    steps = sorted({int(s) for name in run.pairs for s in run.pair(name, "accepted").steps})
+    rounds = []
+    for step in steps:
+        pairs = {}
+        for name in run.pairs:
+            accepted = run.pair(name, "accepted").at(step)
+            if accepted is None:
+                continue
+            entry: dict[str, Any] = {
+                "accepted": accepted > 0,
+                "confirmed": (run.pair(name, "confirmed").at(step) or 0.0) > 0,
+                "confidence": run.pair(name, "confidence").at(step),
+                "matching_index": run.pair(name, "matching_index").at(step),
+            }
+            if entry["accepted"]:
+                entry["rotation_error_deg"] = _number(run.pair(name, "rotation_error_deg").at(step))
+                entry["translation_error_m"] = _number(
+                    run.pair(name, "translation_error_m").at(step)
+                )
+            pairs[name] = entry
+        rounds.append(
+            {
+                "step": step,
+                "agreement": None if agreement is None else agreement.at(step),
+                "pairs": pairs,
+            }
+        )
+    return rounds
+
+
+def summary(run: RecordedRun) -> dict[str, Any]:
+    """Everything the command prints, as plain values."""
+    coverage = run.coverage
+    return {
+        "recording": str(run.path),
+        "settings": run.settings,
+        "steps": int(coverage.steps[-1]) if len(coverage.steps) else 0,
+        "coverage": _number(coverage.last()),
+        "merges": timeline(run),
+    }
+
+
+def render(report: dict[str, Any]) -> str:
+    """The text form of :func:`summary`."""
+    s = report["settings"]
+    lines = [f"recording {report['recording']}"]
+    if s:
+        merging = f"merging every {s['merge_interval']} steps ({s['method']})"
+        lines.append(
+            f"world {s['world']}, {s['robots']} robots, "
+            f"{merging if s['merge'] else 'no merging'}, seed {s['seed']}"
+        )
+    lines += ["", "merge-quality timeline (errors of accepted estimates against the truth)"]
+    header = (
+        f"{'step':>6}  {'pair':<7}{'confidence':>11}{'accepted':>10}{'confirmed':>11}"
+        f"{'rotation [deg]':>16}{'translation [m]':>17}{'agreement':>11}"
+    )
+    lines.append(header)
+    rows = []
+    for merge in report["merges"]:
+        for k, (name, p) in enumerate(sorted(merge["pairs"].items())):
+            rot = p.get("rotation_error_deg")
+            shift = p.get("translation_error_m")
+            agree = merge["agreement"] if k == 0 and merge["agreement"] is not None else None
+            lines.append(
+                f"{merge['step']:>6}  {name:<7}{p['confidence']:>11.3f}"
+                f"{'yes' if p['accepted'] else 'no':>10}{'yes' if p['confirmed'] else 'no':>11}"
+                f"{'-' if rot is None else f'{rot:.2f}':>16}"
+                f"{'-' if shift is None else f'{shift:.3f}':>17}"
+                f"{'' if agree is None else f'{agree:.3f}':>11}"
+            )
+            rows.append(
+                (
+                    name,
+                    bool(p["accepted"]),
+                    bool(p["confirmed"]),
+                    math.inf if rot is None else rot,
+                    math.inf if shift is None else shift,
+                )
+            )
+    if not report["merges"]:
+        lines.append("  (no merge rounds recorded)")
+    coverage = report["coverage"]
+    lines += [
+        "",
+        f"{'steps':<16}{report['steps']}",
+        f"{'team coverage':<16}{'-' if coverage is None else f'{coverage:.3f}'}",
+    ]
+    if rows:
+        accepted = sum(1 for r in rows if r[1])
+        lines.append(f"{'merges':<16}{accepted} of {len(rows)} pair estimates accepted")
+        lines += ["", pair_table(summarise_pairs(rows))]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Read the recording, print the report, write the PNG; returns the exit status."""
+    path: Path = args.recording
+    if path.suffix != ".rrd":
+        raise UsageError(f"give a .rrd recording, got {path}")
+    if args.png is not None and args.no_png:
+        raise UsageError("give either --png or --no-png, not both")
+    try:
+        recorded = read_recording(path)
+    except FileNotFoundError as exc:
+        raise CommandError(one_line(exc)) from exc
+    except ValueError as exc:
+        raise CommandError(one_line(exc)) from exc
+    if not recorded.series:
+        raise CommandError(f"{path} holds no tomosim figures; record it with tomosim explore")
+    report = summary(recorded)
+    png = None
+    if not args.no_png:
+        png = args.png if args.png is not None else path.with_name(path.stem + PNG_SUFFIX)
+        from tomosim.commands.review_plot import plot_summary  # matplotlib only when plotting
+
+        try:
+            plot_summary(recorded, report, png)
+        except OSError as exc:
+            raise CommandError(f"cannot write {png}: {one_line(exc.strerror or exc)}") from exc
+        report["png"] = str(png)
+    print(json.dumps(report, indent=2) if args.json else render(report))
+    if png is not None and not args.json:
+        print(f"\nsummary image: {png}")
+    return 0
