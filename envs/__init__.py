@@ -1,1 +1,23 @@
-"""PettingZoo environments built on the tomosim simulation core."""
+"""PettingZoo environments built on the tomosim simulation core.
+
+* :mod:`envs.multi_robot_exploration_v0`: robots explore from unknown start
+  poses and merge their maps periodically (parallel API, spec card in its
+  docstring).
+
+Importing this package registers the Gymnasium single-agent view
+(:mod:`envs.centralised`) as ``tomosim/MultiRobotExploration-v0``::
+
+    import gymnasium
+    import envs  # noqa: F401  (registers the id)
+
+    team = gymnasium.make("tomosim/MultiRobotExploration-v0", robots=2)
+"""
+
+import gymnasium
+
+from envs.centralised import ENV_ID
+
+if ENV_ID not in gymnasium.registry:
+    gymnasium.register(id=ENV_ID, entry_point="envs.centralised:CentralisedExplorationEnv")
+
+__all__ = ["ENV_ID"]

@@ -1,0 +1,332 @@
+"""Multi-robot exploration with periodic tomographic map merging (PettingZoo, parallel API).
+
+Lidar-equipped differential-drive robots (pymunk physics, 360-beam lidar,
+drifting odometry) start at random free poses with random headings, unknown
+to each other, and each builds an occupancy grid in its own start frame.
+Every ``merge_interval`` steps all grids are merged (tomographic method by
+default); once a robot's map is linked to teammates' by confirmed merges,
+its observation shows the team's map in its own frame.
+
+=====================  =============================================================
+Import                 ``from envs import multi_robot_exploration_v0``
+Agents                 ``robot_0`` ... ``robot_{N-1}`` (fixed order; default N = 3)
+Parallel API           yes (native); AEC through ``env()`` / ``raw_env()``
+Action space           ``Box(-1, 1, (2,), float32)``: linear, angular velocity
+Observation space      ``Dict(scan, map, pose)``, see below
+Reward                 square metres of free space the team first saw, per robot
+Episode end            termination: team coverage >= ``coverage_target``;
+                       truncation: ``max_cycles`` steps
+=====================  =============================================================
+
+Observation (per robot)
+-----------------------
+
+=====  ============  =======  ==========================================================
+key    shape         dtype    values
+=====  ============  =======  ==========================================================
+scan   (360,)        float32  lidar ranges in metres, ``[0, 8]``; no return and dropouts
+                              read the maximum range (8 m)
+map    (64, 64)      int8     window of the robot's best map around its estimated
+                              position, 0.1 m per cell (6.4 m square), ROS coding:
+                              -1 unknown, 0..100 percent occupied; aligned with the
+                              robot's map frame (not rotated with its heading), row 0
+                              at the lowest y; each cell the maximum of the 2 x 2 map
+                              cells it covers
+pose   (3,)          float32  pose estimate (x, y, theta) in the robot's own map frame
+                              (metres, radians); x, y bounded by the world's diagonal
+                              plus 10 m
+=====  ============  =======  ==========================================================
+
+The *best map* of a robot is its own grid, with the cells it has not observed
+filled in from the grids of the teammates its map is linked to through
+confirmed merges, carried into its frame by the merge transforms
+(:mod:`tomosim.team.sharing`; teammates' grids are refreshed every 10 steps).
+A merge the merger does not accept is never used; one it accepts is used
+once the next round confirms it (:class:`tomosim.team.TeamMerger`).
+
+Action
+------
+``(linear, angular)`` as fractions of the maximum forward speed (1 m/s) and turn
+rate (2 rad/s); values outside ``[-1, 1]`` are clipped. An agent given no action
+stands still. One step is 0.1 s of physics for all robots at once.
+
+Reward
+------
+Each step, the free cells of the world (its largest connected free region)
+that the team knows for the first time, in square metres, credited to the
+robots whose maps now know them (shared equally when several do at once).
+The rewards of a step sum to the growth of the team's known area; they use
+the simulator's truth (start poses) and are not observable by the robots.
+
+Starting state
+--------------
+Robots at random free poses (0.35 m of clearance, 0.8 m apart) with headings
+uniform in ``[-pi, pi)``, each having taken one scan.
+
+Episode end
+-----------
+All agents terminate when the team knows ``coverage_target`` of the free space
+(the truth cells whose centres fall on known cells of some robot's grid, placed
+by true start poses), and are truncated after ``max_cycles`` steps.
+
+Infos (per agent, new objects every step)
+-----------------------------------------
+``step``; ``team_coverage`` and ``coverage`` (this robot's own) as fractions of
+the free space; ``teammates``: the agents whose maps this robot sees;
+``merged_now``: a merge round ran at this step; ``merge``: the latest merge
+round (empty before the first) with ``step``, ``method``, ``agreement`` (the
+merged map's acceptance index against the ground truth, placed by its
+reference robot's true start pose), ``accepted`` (number of accepted pair
+estimates), ``merged_robots``, and ``pairs``: per pair ``"r0-r1"``, the
+estimated and true pose of robot 1's map frame in robot 0's (``estimate``,
+``truth``: x, y metres, yaw radians), ``rotation_error_deg``,
+``translation_error_m`` (``inf`` without an estimate), ``matching_index``
+(eq. 31 of the paper), ``confidence``, ``accepted``, ``confirmed``, ``used``
+and the merger's ``reason``.
+
+Arguments
+---------
+``world`` (generated floor plan seed, map_server YAML path or ``World``; default
+floor plan 0), ``world_size`` (width, height of a generated floor plan, metres),
+``robots`` (3), ``max_cycles`` (1500), ``merge`` (True), ``merge_interval`` (50),
+``method`` ("tomographic"), ``coverage_target`` (0.9), ``crop_size`` (64),
+``crop_resolution`` (0.1 m), ``simulation`` (a ``tomosim.simulation.SimulationConfig``),
+``render_mode`` (None or "rgb_array": ground truth, team knowledge, merged map
+and robots, one pixel per truth cell).
+
+Seeding
+-------
+``reset(seed=...)`` builds the environment's one generator; every draw (start
+poses, odometry and lidar noise, merging) comes from streams derived from it.
+``reset()`` without a seed continues from the same generator.
+
+Version history
+---------------
+* v0: initial version.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils import wrappers
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+
+from envs.observations import action_space, command, observation_space, observe, pose_bound
+from envs.rendering import render_frame
+from merging.api import DEFAULT_METHOD
+from tomosim.episode import load_world
+from tomosim.simulation import SimulationConfig
+from tomosim.team import TeamConfig, TeamSession, robot_name
+from tomosim.worlds import World
+
+RESOLUTION_TOLERANCE = 1e-9
+"""Relative slack when checking that the crop resolution is a whole number of map cells."""
+
+
+def agent_name(index: int) -> str:
+    """The agent id of robot ``index``: ``robot_0``, ``robot_1``, ..."""
+    return f"robot_{index}"
+
+
+class MultiRobotExplorationEnv(ParallelEnv):
+    """The parallel environment of the module docstring (its spec card)."""
+
+    metadata: dict[str, Any] = {  # noqa: RUF012  # PettingZoo reads the class attribute
+        "name": "multi_robot_exploration_v0",
+        "render_modes": ["rgb_array"],
+        "is_parallelizable": True,
+        "render_fps": 10,
+    }
+
+    def __init__(
+        self,
+        world: int | str | Path | World = 0,
+        *,
+        world_size: tuple[float, float] | None = None,
+        robots: int = 3,
+        max_cycles: int = 1500,
+        merge: bool = True,
+        merge_interval: int = 50,
+        method: str = DEFAULT_METHOD,
+        coverage_target: float = 0.9,
+        crop_size: int = 64,
+        crop_resolution: float = 0.1,
+        simulation: SimulationConfig | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        if not (isinstance(robots, int | np.integer) and robots >= 1):
+            raise ValueError(f"robots must be a whole number >= 1, got {robots!r}")
+        if not (isinstance(max_cycles, int | np.integer) and max_cycles >= 1):
+            raise ValueError(f"max_cycles must be a whole number >= 1, got {max_cycles!r}")
+        if not 0.0 < coverage_target <= 1.0:
+            raise ValueError(f"coverage_target must be in (0, 1], got {coverage_target}")
+        if not (isinstance(crop_size, int | np.integer) and crop_size >= 2 and crop_size % 2 == 0):
+            raise ValueError(f"crop_size must be an even number of cells >= 2, got {crop_size!r}")
+        self.team_config = TeamConfig(
+            merge=merge,
+            method=method,
+            merge_interval=merge_interval,
+            simulation=simulation if simulation is not None else SimulationConfig(),
+        )
+        resolution = self.team_config.simulation.mapping.resolution
+        pool = round(crop_resolution / resolution)
+        if pool < 1 or abs(pool * resolution - crop_resolution) > RESOLUTION_TOLERANCE * pool:
+            raise ValueError(
+                f"crop_resolution must be a whole multiple of the map's {resolution} m cells, "
+                f"got {crop_resolution}"
+            )
+        self.world = world if isinstance(world, World) else load_world(world, size=world_size)
+        self.render_mode = render_mode
+        self.max_cycles = int(max_cycles)
+        self.coverage_target = float(coverage_target)
+        self.crop_size = int(crop_size)
+        self.pool = int(pool)
+        self._bound = pose_bound(self.world)
+        self.possible_agents = [agent_name(k) for k in range(int(robots))]
+        self.agents: list[str] = []
+        lidar = self.team_config.simulation.lidar
+        self._observation_space = observation_space(
+            lidar.beams, lidar.max_range, self.crop_size, self._bound
+        )
+        self._action_space = action_space()
+        self.np_random: np.random.Generator | None = None
+        self.session: TeamSession | None = None
+
+    def observation_space(self, agent: str) -> spaces.Space[Any]:
+        """The observation space of ``agent`` (the same object every call)."""
+        return self._observation_space
+
+    def action_space(self, agent: str) -> spaces.Space[Any]:
+        """The action space of ``agent`` (the same object every call)."""
+        return self._action_space
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, dict[str, NDArray[Any]]], dict[str, dict[str, Any]]]:
+        """Start a new episode; ``seed`` rebuilds the generator (module docstring).
+
+        ``options`` are accepted for the API's sake and not used.
+        """
+        if seed is not None:
+            self.np_random = np.random.default_rng(seed)
+        elif self.np_random is None:
+            self.np_random = np.random.default_rng()
+        return self.start(self.np_random)
+
+    def start(
+        self, generator: np.random.Generator
+    ) -> tuple[dict[str, dict[str, NDArray[Any]]], dict[str, dict[str, Any]]]:
+        """Start a new episode drawing from ``generator``; returns observations and infos."""
+        self.session = TeamSession(
+            self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
+        )
+        self.agents = list(self.possible_agents)
+        return self._observations(), self._infos(merged_now=False)
+
+    def step(
+        self, actions: dict[str, Any]
+    ) -> tuple[
+        dict[str, dict[str, NDArray[Any]]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """Advance all robots by one step of 0.1 s under ``actions``."""
+        session = self.session
+        if session is None:
+            raise RuntimeError("call reset() before step()")
+        if not self.agents:
+            return {}, {}, {}, {}, {}
+        unknown = set(actions) - set(self.possible_agents)
+        if unknown:
+            raise ValueError(
+                f"actions for unknown agents {sorted(unknown)}; agents are {self.agents}"
+            )
+        commands = np.zeros((len(self.possible_agents), 2))
+        for k, agent in enumerate(self.possible_agents):
+            if actions.get(agent) is not None:
+                commands[k] = command(actions[agent], name=agent)
+        merge = session.step(commands)
+        observations = self._observations()
+        rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
+        done = session.coverage.fraction >= self.coverage_target
+        cut = session.steps >= self.max_cycles
+        terminations = dict.fromkeys(self.agents, bool(done))
+        truncations = dict.fromkeys(self.agents, bool(cut and not done))
+        infos = self._infos(merged_now=merge is not None)
+        if done or cut:
+            self.agents = []
+        return observations, rewards, terminations, truncations, infos
+
+    def _observations(self) -> dict[str, dict[str, NDArray[Any]]]:
+        assert self.session is not None  # reset() made it
+        return {
+            agent: observe(self.session, k, size=self.crop_size, pool=self.pool, bound=self._bound)
+            for k, agent in enumerate(self.possible_agents)
+            if agent in self.agents
+        }
+
+    def _infos(self, *, merged_now: bool) -> dict[str, dict[str, Any]]:
+        session = self.session
+        assert session is not None  # reset() made it
+        merge = session.last_merge
+        infos = {}
+        for k, agent in enumerate(self.possible_agents):
+            if agent not in self.agents:
+                continue
+            infos[agent] = {
+                "step": session.steps,
+                "team_coverage": session.coverage.fraction,
+                "coverage": session.coverage.robot_fraction(k),
+                "teammates": [agent_name(t) for t in session.shared.teammates(k)],
+                "merged_now": merged_now,
+                "merge": {} if merge is None else merge.as_dict(),
+            }
+        return infos
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """The current frame as an RGB array (``render_mode="rgb_array"``), else None."""
+        if self.render_mode is None or self.session is None:
+            return None
+        return render_frame(self.session)
+
+    def close(self) -> None:
+        """Release the episode."""
+        self.session = None
+
+
+def parallel_env(**kwargs: Any) -> MultiRobotExplorationEnv:
+    """The native parallel environment (arguments as in the module docstring)."""
+    return MultiRobotExplorationEnv(**kwargs)
+
+
+def raw_env(**kwargs: Any) -> AECEnv:
+    """The AEC view of :func:`parallel_env`, without wrappers."""
+    return parallel_to_aec_wrapper(parallel_env(**kwargs))
+
+
+def env(**kwargs: Any) -> AECEnv:
+    """The AEC view with PettingZoo's order-enforcing wrapper (the usual entry point)."""
+    return wrappers.OrderEnforcingWrapper(raw_env(**kwargs))
+
+
+__all__ = [
+    "MultiRobotExplorationEnv",
+    "agent_name",
+    "env",
+    "parallel_env",
+    "raw_env",
+    "robot_name",
+]

@@ -1,0 +1,91 @@
+"""Per-robot observation and action spaces of the exploration environments, and their values.
+
+Observation of one robot (a ``Dict`` space):
+
+=======  ==============  ========  =====================================================
+key      shape           dtype     values
+=======  ==============  ========  =====================================================
+scan     (beams,)        float32   ranges in metres, ``[0, max_range]``; no return and
+                                   dropouts read ``max_range``
+map      (size, size)    int8      egocentric window of the robot's best map in the ROS
+                                   coding: -1 unknown, 0..100 percent occupied
+pose     (3,)            float32   pose estimate ``(x, y, theta)`` in the robot's own
+                                   map frame (metres, radians in ``[-pi, pi]``)
+=======  ==============  ========  =====================================================
+
+The map window is centred on the robot's estimated position and aligned with
+its map frame, not rotated with its heading (``pose[2]`` gives the heading);
+row 0 is the window's lowest ``y``. Each window cell covers ``pool x pool``
+map cells and holds their maximum, so walls survive the coarsening.
+
+Action of one robot: ``Box(-1, 1, (2,), float32)``, the linear and angular
+velocity as fractions of the robot's maximum forward speed and turn rate;
+values outside the box are clipped.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from merging.grid import OCCUPIED, UNKNOWN
+from tomosim.team import TeamSession
+from tomosim.worlds import World
+
+POSE_MARGIN = 10.0
+"""Metres added to the world's diagonal for the bound of a pose estimate, room for
+odometry drift; an estimate beyond it is clipped."""
+
+
+def pose_bound(world: World) -> float:
+    """Largest ``|x|`` or ``|y|`` a pose estimate in a robot's own frame is given."""
+    xmin, ymin, xmax, ymax = world.bounds
+    return math.hypot(xmax - xmin, ymax - ymin) + POSE_MARGIN
+
+
+def observation_space(beams: int, max_range: float, size: int, bound: float) -> spaces.Dict:
+    """The space of one robot's observation (module docstring)."""
+    return spaces.Dict(
+        {
+            "scan": spaces.Box(0.0, max_range, shape=(beams,), dtype=np.float32),
+            "map": spaces.Box(UNKNOWN, OCCUPIED, shape=(size, size), dtype=np.int8),
+            "pose": spaces.Box(
+                np.array([-bound, -bound, -math.pi], dtype=np.float32),
+                np.array([bound, bound, math.pi], dtype=np.float32),
+                dtype=np.float32,
+            ),
+        }
+    )
+
+
+def action_space() -> spaces.Box:
+    """The space of one robot's action (module docstring)."""
+    return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+
+
+def observe(
+    session: TeamSession, robot: int, *, size: int, pool: int, bound: float
+) -> dict[str, NDArray[np.float32] | NDArray[np.int8]]:
+    """Robot ``robot``'s observation now (new arrays every call)."""
+    scan = session.simulation.scans[robot]
+    ranges = np.where(np.isfinite(scan.ranges), scan.ranges, scan.max_range)
+    pose = session.simulation.odometry[robot].pose
+    limit = np.array([bound, bound, math.pi])
+    return {
+        "scan": np.clip(ranges, 0.0, scan.max_range).astype(np.float32),
+        "map": session.best_crop(robot, size=size, pool=pool),
+        "pose": np.clip(pose, -limit, limit).astype(np.float32),
+    }
+
+
+def command(action: object, *, name: str) -> NDArray[np.float64]:
+    """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
+    values = np.asarray(action, dtype=np.float64).reshape(-1)
+    if values.shape != (2,) or not np.all(np.isfinite(values)):
+        raise ValueError(
+            f"the action of {name} must be two finite numbers (linear, angular), got {action!r}"
+        )
+    return np.clip(values, -1.0, 1.0)

@@ -1,0 +1,166 @@
+"""The multi-robot exploration environment: PettingZoo and Gymnasium APIs, seeding, semantics."""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env, data_equivalence
+from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, render_test
+
+import envs
+from envs import multi_robot_exploration_v0 as exploration
+from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv
+
+SMALL = {"world_size": (12.0, 9.0), "robots": 2}
+"""A small floor with two robots: quick to step."""
+ROLLOUT_STEPS = 120
+"""Steps of the same-seed rollout comparison (two merge rounds at interval 50)."""
+DICT_OBSERVATION_WARNINGS = (
+    "Observation space for each agent probably should be",
+    "Observation is not a NumPy array",
+)
+"""api_test's advice against Dict observations; the observation is a Dict by design
+(scan, map window, pose), so these two messages, and only these, are allowed."""
+
+
+def small_env(**kwargs: Any) -> MultiRobotExplorationEnv:
+    return exploration.parallel_env(**{**SMALL, **kwargs})
+
+
+def test_parallel_api() -> None:
+    parallel_api_test(small_env(), num_cycles=40)
+
+
+def test_aec_api() -> None:
+    with warnings.catch_warnings():
+        for message in DICT_OBSERVATION_WARNINGS:
+            warnings.filterwarnings("ignore", message=message)
+        api_test(exploration.env(), num_cycles=30)
+
+
+def test_max_cycles() -> None:
+    max_cycles_test(exploration)
+
+
+def test_render() -> None:
+    def make(render_mode: str) -> Any:
+        # render_test first builds a "human" environment only to read its metadata;
+        # this environment draws rgb_array frames only.
+        supported = MultiRobotExplorationEnv.metadata["render_modes"]
+        return exploration.env(
+            **SMALL, render_mode=render_mode if render_mode in supported else None
+        )
+
+    render_test(make)
+
+
+def rollout(seed: int, steps: int) -> list[tuple[Any, ...]]:
+    """Everything a seeded episode returns under seeded random actions."""
+    env = small_env(merge_interval=50)
+    observations, infos = env.reset(seed=seed)
+    for k, agent in enumerate(env.possible_agents):
+        env.action_space(agent).seed(100 + k)
+    trace: list[tuple[Any, ...]] = [(observations, infos)]
+    for _ in range(steps):
+        actions = {agent: env.action_space(agent).sample() for agent in env.agents}
+        trace.append(env.step(actions))
+    return trace
+
+
+def test_same_seed_rollouts_match_exactly() -> None:
+    first, second = rollout(8, ROLLOUT_STEPS), rollout(8, ROLLOUT_STEPS)
+    assert len(first) == ROLLOUT_STEPS + 1
+    for a, b in zip(first, second, strict=True):
+        assert data_equivalence(a, b, exact=True)
+    merged = [step[4]["robot_0"]["merged_now"] for step in first[1:]]
+    assert merged.count(True) == 2  # the comparison covers merge rounds
+    other = rollout(9, 1)
+    assert not data_equivalence(first[0][0], other[0][0], exact=True)
+
+
+def test_gymnasium_view_passes_the_checker() -> None:
+    team = gymnasium.make(envs.ENV_ID, **SMALL)
+    check_env(team.unwrapped)
+    observation, _ = team.reset(seed=0)
+    assert observation["map"].shape == (2, 64, 64)
+    _, reward, terminated, truncated, info = team.step(np.zeros((2, 2), np.float32))
+    assert isinstance(reward, float) and not terminated and not truncated
+    assert set(info["agents"]) == {"robot_0", "robot_1"}
+    team.close()
+
+
+def test_observations_describe_the_robot() -> None:
+    env = small_env()
+    observations, _ = env.reset(seed=3)
+    session = env.session
+    assert session is not None
+    for k, agent in enumerate(env.possible_agents):
+        obs = observations[agent]
+        assert env.observation_space(agent).contains(obs)
+        np.testing.assert_array_equal(
+            obs["pose"], session.simulation.odometry[k].pose.astype(np.float32)
+        )
+        assert np.all(np.isfinite(obs["scan"])) and obs["scan"].max() <= 8.0
+        # The robot stands in space its first scan passed through: known, not a wall.
+        assert 0 <= obs["map"][32, 32] < 65
+    for _ in range(4):  # four passes make a cell free (log-odds model of tomosim.mapping)
+        observations, *_ = env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    for agent in env.possible_agents:
+        assert 0 <= observations[agent]["map"][32, 32] <= 19
+
+
+def test_rewards_are_the_team_s_new_free_area() -> None:
+    env = small_env()
+    env.reset(seed=5)
+    session = env.session
+    assert session is not None
+    area = session.coverage.total * session.coverage.cell_area
+    before = session.coverage.fraction
+    for _ in range(15):
+        _, rewards, _, _, infos = env.step(
+            {a: np.array([0.8, 0.4], np.float32) for a in env.agents}
+        )
+        now = infos["robot_0"]["team_coverage"]
+        assert sum(rewards.values()) == pytest.approx((now - before) * area, rel=1e-9, abs=1e-9)
+        assert all(r >= 0 for r in rewards.values())
+        before = now
+
+
+def test_reaching_the_coverage_target_terminates_everyone() -> None:
+    env = small_env(coverage_target=0.05)
+    env.reset(seed=1)
+    _, _, terminations, truncations, _ = env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    assert all(terminations.values()) and not any(truncations.values())
+    assert env.agents == []
+
+
+def test_merge_infos_carry_truth_errors_and_unused_merges_change_nothing() -> None:
+    env = small_env(merge_interval=5)
+    env.reset(seed=2)
+    for _ in range(5):
+        *_, infos = env.step({a: np.array([0.3, 0.5], np.float32) for a in env.agents})
+    info = infos["robot_0"]
+    assert info["merged_now"] and info["merge"]["step"] == 5
+    pair = info["merge"]["pairs"]["r0-r1"]
+    for key in ("rotation_error_deg", "translation_error_m", "matching_index", "confidence"):
+        assert isinstance(pair[key], float)
+    assert isinstance(pair["accepted"], bool) and len(pair["truth"]) == 3
+    # The first round can confirm nothing, so nobody sees a teammate's map yet.
+    assert not pair["confirmed"] and info["teammates"] == []
+
+
+def test_bad_arguments_are_rejected() -> None:
+    with pytest.raises(ValueError, match="render_mode"):
+        small_env(render_mode="human")
+    with pytest.raises(ValueError, match="crop_resolution"):
+        small_env(crop_resolution=0.07)
+    with pytest.raises(ValueError, match="robots"):
+        small_env(robots=0)
+    env = small_env()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="robot_0"):
+        env.step({"robot_0": np.array([np.nan, 0.0])})
