@@ -13,9 +13,17 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from tomosim.commands import CommandError, Parser, UsageError, one_line
+from tomosim.commands import explore as explore_command
 from tomosim.commands import merge as merge_command
+from tomosim.commands import review as review_command
+from tomosim.commands import sweep as sweep_command
 
-COMMANDS: tuple[ModuleType, ...] = (merge_command,)
+COMMANDS: tuple[ModuleType, ...] = (
+    explore_command,
+    review_command,
+    merge_command,
+    sweep_command,
+)
 """Command modules, in the order ``tomosim --help`` lists them."""
 PROG = "tomosim"
 """The program name in messages."""

@@ -1,0 +1,22 @@
+"""Many seeded episodes at once: a grid of worlds, team sizes, merge methods and seeds.
+
+:func:`run_sweep` runs every episode of a :class:`SweepPlan` with a local
+process pool or on Ray, appending one row per finished episode to a CSV file,
+so that a killed sweep loses nothing and a resumed one skips what is done.
+"""
+
+from tomosim.sweep.executors import EXECUTORS, run_sweep
+from tomosim.sweep.plan import NO_MERGE, Episode, SweepPlan
+from tomosim.sweep.rows import ROW_FIELDS, ResultsFile, episode_row, run_one
+
+__all__ = [
+    "EXECUTORS",
+    "NO_MERGE",
+    "ROW_FIELDS",
+    "Episode",
+    "ResultsFile",
+    "SweepPlan",
+    "episode_row",
+    "run_one",
+    "run_sweep",
+]

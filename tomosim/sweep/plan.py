@@ -1,0 +1,117 @@
+"""What a sweep runs: the grid of episodes and the key naming each one."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from merging import available_methods
+from tomosim.episode import EpisodeConfig
+
+NO_MERGE = "none"
+"""Method name standing for an episode with merging switched off."""
+
+
+@dataclass(frozen=True, slots=True)
+class Episode:
+    """One episode of a sweep: its key (unique in the sweep) and configuration."""
+
+    key: str
+    config: EpisodeConfig
+
+
+@dataclass(frozen=True, slots=True)
+class SweepPlan:
+    """A grid of episodes: every combination of worlds, team sizes, methods and seeds.
+
+    Attributes
+    ----------
+    worlds : tuple of str
+        Generated floor-plan seeds (``"0"``) or map_server YAML paths.
+    robots : tuple of int
+        Team sizes.
+    methods : tuple of str
+        Merging methods (:func:`merging.available_methods`), or ``"none"``
+        for merging switched off.
+    seeds : tuple of int
+        Episode seeds.
+    steps, merge_interval : int
+        Per episode, as :class:`~tomosim.episode.EpisodeConfig`.
+    coverage_target : float
+        Team coverage at which an episode ends.
+    world_size : (float, float) or None
+        Size in metres of generated floor plans (None: the default 30 x 20).
+    record_dir : Path or None
+        Folder for one ``.rrd`` recording per episode (None: no recordings).
+    """
+
+    worlds: tuple[str, ...] = ("0",)
+    robots: tuple[int, ...] = (3,)
+    methods: tuple[str, ...] = ("tomographic",)
+    seeds: tuple[int, ...] = (0,)
+    steps: int = 1500
+    merge_interval: int = 50
+    coverage_target: float = 0.9
+    world_size: tuple[float, float] | None = None
+    record_dir: Path | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("worlds", "robots", "methods", "seeds"):
+            if len(getattr(self, name)) == 0:
+                raise ValueError(f"a sweep needs at least one value of {name}")
+        known = set(available_methods()) | {NO_MERGE}
+        unknown = [m for m in self.methods if m not in known]
+        if unknown:
+            raise ValueError(f"unknown merging method(s) {unknown}; choose from {sorted(known)}")
+        for name in ("robots", "seeds", "methods", "worlds"):
+            values = getattr(self, name)
+            if len(set(values)) != len(values):
+                raise ValueError(f"{name} lists a value twice: {list(values)}")
+
+    def settings(self) -> dict[str, object]:
+        """What every episode shares, by results-file column; a results file is tied to these."""
+        return {
+            "steps_limit": self.steps,
+            "merge_interval": self.merge_interval,
+            "coverage_target": self.coverage_target,
+            "world_size": "default"
+            if self.world_size is None
+            else "x".join(f"{v:g}" for v in self.world_size),
+        }
+
+    def episodes(self) -> list[Episode]:
+        """Every episode, in a fixed order (worlds, robots, methods, seeds)."""
+        out: list[Episode] = []
+        for world in self.worlds:
+            for robots in self.robots:
+                for method in self.methods:
+                    for seed in self.seeds:
+                        key = episode_key(world, robots, method, seed)
+                        merge = method != NO_MERGE
+                        config = EpisodeConfig(
+                            world=world,
+                            world_size=self.world_size,
+                            robots=robots,
+                            steps=self.steps,
+                            merge=merge,
+                            merge_interval=self.merge_interval,
+                            method=method if merge else EpisodeConfig.method,
+                            coverage_target=self.coverage_target,
+                            seed=seed,
+                        )
+                        if self.record_dir is not None:
+                            config = replace(
+                                config, record=self.record_dir / f"{_file_safe(key)}.rrd"
+                            )
+                        out.append(Episode(key, config))
+        return out
+
+
+def episode_key(world: str, robots: int, method: str, seed: int) -> str:
+    """``world|robots|method|seed``: names an episode within a sweep."""
+    return f"{world}|{robots}|{method}|{seed}"
+
+
+def _file_safe(key: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", key).strip("_")

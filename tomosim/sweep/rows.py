@@ -1,0 +1,130 @@
+"""One CSV row per finished episode, appended as episodes end and read back on resume."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tomosim.episode import EpisodeConfig, EpisodeMetrics, run_episode
+
+ROTATION_RIGHT_DEG = 2.0
+"""An accepted merge further off than this in rotation counts as wrong (the
+main job's accuracy bar)."""
+TRANSLATION_RIGHT_M = 0.2
+"""An accepted merge further off than this in translation counts as wrong."""
+TIMING_FIELDS = ("wall_seconds", "merge_seconds")
+"""Columns that measure the machine, not the episode: they differ between runs."""
+ROW_FIELDS = (
+    "key", "world", "world_spec", "robots", "method", "seed", "steps_limit", "merge_interval",
+    "coverage_target", "world_size", "steps", "coverage", "steps_to_target",
+    "time_to_target_s", "stop_reason", "merge_rounds", "pairs_accepted", "pairs_wrong",
+    "rotation_error_deg_median", "rotation_error_deg_max", "translation_error_m_median",
+    "translation_error_m_max", "record", *TIMING_FIELDS,
+)  # fmt: skip
+"""Columns of the results file, in order."""
+
+
+def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> dict[str, Any]:
+    """Flatten an episode's metrics into one row of :data:`ROW_FIELDS`."""
+    settings = metrics.settings
+    accepted = [pair for _, pair in metrics.accepted()]
+    rotation = np.array([p.rotation_error_deg for p in accepted], dtype=float)
+    translation = np.array([p.translation_error_m for p in accepted], dtype=float)
+    wrong = int(
+        np.count_nonzero((rotation > ROTATION_RIGHT_DEG) | (translation > TRANSLATION_RIGHT_M))
+    )
+    target = metrics.steps_to(float(settings["coverage_target"]))
+    return {
+        "key": key,
+        "world": settings["world"],
+        "world_spec": settings["world_spec"],
+        "robots": settings["robots"],
+        "method": settings["method"] if settings["merge"] else "none",
+        "seed": settings["seed"],
+        "steps_limit": shared["steps_limit"],
+        "merge_interval": shared["merge_interval"],
+        "coverage_target": shared["coverage_target"],
+        "world_size": shared["world_size"],
+        "steps": metrics.steps,
+        "coverage": round(metrics.coverage, 6),
+        "steps_to_target": "" if target is None else target,
+        "time_to_target_s": "" if target is None else round(target * metrics.dt, 3),
+        "stop_reason": metrics.stop_reason,
+        "merge_rounds": len(metrics.merges),
+        "pairs_accepted": len(accepted),
+        "pairs_wrong": wrong,
+        "rotation_error_deg_median": _stat(np.median, rotation),
+        "rotation_error_deg_max": _stat(np.max, rotation),
+        "translation_error_m_median": _stat(np.median, translation),
+        "translation_error_m_max": _stat(np.max, translation),
+        "record": metrics.record or "",
+        "wall_seconds": round(metrics.wall_seconds, 3),
+        "merge_seconds": round(sum(m.seconds for m in metrics.merges), 3),
+    }
+
+
+def _stat(function: Any, values: np.ndarray) -> float | str:
+    finite = values[np.isfinite(values)]
+    return round(float(function(finite)), 6) if len(finite) else ""
+
+
+def run_one(key: str, config: EpisodeConfig, shared: dict[str, Any]) -> dict[str, Any]:
+    """Run one episode and return its row: the unit of work every executor ships."""
+    return episode_row(key, run_episode(config), shared)
+
+
+class ResultsFile:
+    """The CSV file a sweep appends to.
+
+    Every row is flushed and synced to disk as soon as it is written. On
+    opening, a last line cut short by a killed process is dropped, so that
+    the file holds only whole rows.
+    """
+
+    __slots__ = ("path",)
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+
+    def rows(self) -> list[dict[str, str]]:
+        """The whole rows in the file (none when it does not exist)."""
+        if not self.path.is_file():
+            return []
+        with self.path.open(newline="") as handle:
+            reader = csv.DictReader(handle)
+            if reader.fieldnames is None:
+                return []
+            if tuple(reader.fieldnames) != ROW_FIELDS:
+                raise ValueError(
+                    f"{self.path} is not a tomosim sweep results file (its columns differ); "
+                    "choose another --out"
+                )
+            return [row for row in reader if None not in row.values() and None not in row]
+
+    def repair(self) -> int:
+        """Drop a trailing partial line left by a killed writer; returns rows kept."""
+        if not self.path.is_file():
+            return 0
+        text = self.path.read_text()
+        if text and not text.endswith("\n"):
+            text = text[: text.rfind("\n") + 1]
+            self.path.write_text(text)
+        return len(self.rows())
+
+    def append(self, row: dict[str, Any]) -> None:
+        """Append one row (writing the header first into a new file)."""
+        new = not self.path.is_file() or self.path.stat().st_size == 0
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=ROW_FIELDS, lineterminator="\n")
+        if new:
+            writer.writeheader()
+        writer.writerow(row)
+        with self.path.open("a", newline="") as handle:
+            handle.write(buffer.getvalue())
+            handle.flush()
+            os.fsync(handle.fileno())
