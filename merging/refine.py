@@ -178,6 +178,7 @@ def refine_transform(
     sigmas: tuple[float, ...] = SIGMA_SCHEDULE,
     iterations: int = ITERATIONS,
     local: bool = False,
+    max_points: int = REFINE_POINTS,
 ) -> NDArray[np.float64]:
     """Refine ``matrix`` (map 2 cells -> map 1 cells) to sub-cell accuracy.
 
@@ -196,6 +197,8 @@ def refine_transform(
     local : bool
         Blur only the part of map 1 where map 2's cells land (plus
         :data:`LOCAL_MARGIN`): for a start already within a cell or so.
+    max_points : int
+        Map 2 cells moved at most.
 
     Returns
     -------
@@ -203,7 +206,7 @@ def refine_transform(
         The refined transform; the input when too few cells land on map 1.
     """
     current = np.asarray(matrix, dtype=float).copy()
-    stride = max(1, int(np.ceil(len(second.points) / REFINE_POINTS)))
+    stride = max(1, int(np.ceil(len(second.points) / max_points)))
     points = second.points[::stride]
     for sigma in sigmas:
         box = _landing_box(current, points, smoothed, sigma) if local else None
@@ -291,7 +294,7 @@ one cell spans the sharp field's peak (sigma of 1 cell)."""
 
 
 def constraint_strength(
-    smoothed: SmoothedMap, second: PreparedMap, matrix: NDArray[np.float64]
+    smoothed: SmoothedMap, second: PreparedMap, matrix: NDArray[np.float64], *, local: bool = False
 ) -> float:
     """How firmly the walls pin the transform down, in matching cells.
 
@@ -302,11 +305,14 @@ def constraint_strength(
     the least constrained direction: close to the number of wall cells
     holding that direction (a cell on a wall loses about one per cell²), and
     near zero when the overlap is one straight wall that lets map 2 slide or
-    turn.
+    turn. ``local`` blurs only where map 2 lands (see :func:`refine_transform`).
     """
-    field = smoothed.field(CURVATURE_SIGMA)
     stride = max(1, int(np.ceil(len(second.points) / REFINE_POINTS)))
     points = second.points[::stride]
+    box = _landing_box(matrix, points, smoothed, CURVATURE_SIGMA) if local else None
+    if local and box is None:
+        return 0.0
+    field = smoothed.field(CURVATURE_SIGMA, box=box)
     landed = apply_transform(matrix, points)
     pivot = landed.mean(axis=0)
     rel = landed - pivot

@@ -34,6 +34,7 @@ from merging.api import register_method
 from merging.correlate import coarse_factor, coarsen, translation_peaks
 from merging.refine import (
     ITERATIONS,
+    REFINE_POINTS,
     SHARP_ITERATIONS,
     SIGMA_SCHEDULE,
     SmoothedMap,
@@ -51,9 +52,10 @@ from merging.verify import (
     verify,
 )
 
-ROTATION_PEAKS = 4
+ROTATION_PEAKS = 3
 """Rotation peaks (modulo 180°) kept; with their twins, twice as many hypotheses.
-Rectilinear buildings put the true peak among the four strongest."""
+In every real-map window pair examined the true rotation was among the three
+strongest (rectilinear buildings put its 90° neighbours next)."""
 TRANSLATION_PEAKS = 3
 """Translations kept per rotation hypothesis."""
 REFINED = 3
@@ -63,6 +65,9 @@ CORRELATION_REFINED = 2
 KEEP_REFINED_MARGIN = 0.02
 """Score by which a refined transform may verify worse than its start and still be
 kept: about one wall cell in fifty landing one cell farther out."""
+WIDE_POINTS = 600
+"""Map 2 cells moved in the first, widest refinement round: enough to bring a
+coarse hypothesis within the next field's reach."""
 SHARPENED = 2
 """Refined hypotheses, best first, that are refined on to the one-cell field:
 the others only need the widest field's first steps to be ranked below them,
@@ -89,18 +94,28 @@ def _refine_if_better(
     iterations: int = ITERATIONS,
     *,
     local: bool = False,
+    start: Verification | None = None,
+    max_points: int = REFINE_POINTS,
 ) -> tuple[Verification, NDArray[np.float64]]:
     """Refine ``matrix``; keep the start only when the refined one verifies clearly worse.
 
+    ``start`` is the start's full verification when already known.
     Refinement may settle on a nearby optimum that explains the maps worse
     (two close parallel walls blurred into one by a wide field). Within
     :data:`KEEP_REFINED_MARGIN` the refined transform wins: verification
     tolerates a cell of misfit, so it cannot rank finer than that.
     """
     better = refine_transform(
-        smoothed, second, matrix, sigmas=sigmas, iterations=iterations, local=local
+        smoothed,
+        second,
+        matrix,
+        sigmas=sigmas,
+        iterations=iterations,
+        local=local,
+        max_points=max_points,
     )
-    before, after = verify(first, second, matrix), verify(first, second, better)
+    before = start if start is not None else verify(first, second, matrix, space=False)
+    after = verify(first, second, better, space=False)
     if rank(after) >= rank(before) - KEEP_REFINED_MARGIN:
         return after, better
     return before, matrix
@@ -158,7 +173,9 @@ def tomographic_merge(
     timings["translation"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    screened = [(verify(first, second, m, stride=SCREEN_STRIDE), m) for m in candidates]
+    screened = [
+        (verify(first, second, m, stride=SCREEN_STRIDE, space=False), m) for m in candidates
+    ]
     # Refine the best by verification and the best by correlation: before
     # refinement a true but slightly misaligned transform can fit worse than
     # one that lays a single outer corner on a corner, which the correlation
@@ -176,29 +193,39 @@ def tomographic_merge(
     smoothed = SmoothedMap(first.walls, first.shape)
     widest, finest = SIGMA_SCHEDULE[:1], SIGMA_SCHEDULE[-1:]
     refined = [
-        _refine_if_better(smoothed, first, second, m, widest)
+        _refine_if_better(smoothed, first, second, m, widest, max_points=WIDE_POINTS)
         for _, m in checked[: REFINED + CORRELATION_REFINED]
     ]
     refined.sort(key=lambda vm: -rank(vm[0]))
     refined[:SHARPENED] = [
-        _refine_if_better(smoothed, first, second, m, SIGMA_SCHEDULE[1:-1], SHARP_ITERATIONS)
-        for _, m in refined[:SHARPENED]
+        _refine_if_better(
+            smoothed,
+            first,
+            second,
+            m,
+            SIGMA_SCHEDULE[1:-1],
+            SHARP_ITERATIONS,
+            local=True,
+            start=check,
+        )
+        for check, m in refined[:SHARPENED]
     ]
     rest = [
-        (verify(first, second, m), m)
+        (verify(first, second, m, space=False), m)
         for _, m in checked[REFINED + CORRELATION_REFINED : REFINED + CORRELATION_REFINED + 3]
     ]
     pool = sorted(refined + rest, key=lambda vm: -rank(vm[0]))
     pool[0] = _refine_if_better(
-        smoothed, first, second, pool[0][1], finest, SHARP_ITERATIONS, local=True
+        smoothed, first, second, pool[0][1], finest, SHARP_ITERATIONS, local=True, start=pool[0][0]
     )
     timings["refine"] = time.perf_counter() - clock
 
-    best_check, best = pool[0]
+    best = pool[0][1]
+    best_check = verify(first, second, best)  # with the shared open space, for confidence
     runner_up = next(
         (v for v, m in pool[1:] if _rms_between(m, best, second.points) > DISTINCT_CELLS), None
     )
-    strength = constraint_strength(smoothed, second, best)
+    strength = constraint_strength(smoothed, second, best, local=True)
     score = confidence(best_check, runner_up, strength=strength)
     hypotheses = tuple(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
