@@ -1,11 +1,12 @@
-"""Draw one merge for the README: two windows of a real map, and what the merger made of them.
+"""Draw one merge for the README: two windows of a map, and what the merger made of them.
+
+By default the map is the project's own generated floor plan (seed 3); ``--map
+NAME`` takes a real map from the shared folder instead (``../shared/maps`` or
+``$TOMOSIM_MAPS``), for a look that is not committed.
 
 Usage::
 
-    python scripts/plot_merge_example.py [--map intel] [--seed 26] [--out FILE.png]
-
-Needs matplotlib (``pip install "tomosim[plot]"``) and the real maps
-(``../shared/maps`` or ``$TOMOSIM_MAPS``).
+    python scripts/plot_merge_example.py [--floor 3 | --map intel] [--seed 7] [--out FILE.png]
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import merging
 from merging.metrics import transform_error
 from merging.pairs import cut_window_pairs
 from tomosim.data import maps_dir
+from tomosim.worlds import generate_floorplan
 
 GREY = {-1: 0.75, 0: 1.0, 100: 0.0}
 """Grey level per cell class for the pictures: unknown, free, occupied."""
@@ -35,8 +37,9 @@ def shade(cells: np.ndarray) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--map", default="intel")
-    parser.add_argument("--seed", type=int, default=26)
+    parser.add_argument("--floor", type=int, default=3, help="generated floor-plan seed")
+    parser.add_argument("--map", help="a real map of the shared folder, instead of a floor")
+    parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--out", type=Path, default=Path("docs/figures/merge_example.png"))
     args = parser.parse_args(argv)
     try:
@@ -47,11 +50,14 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         print('error: plotting needs matplotlib: pip install "tomosim[plot]"', file=sys.stderr)
         return 1
-    folder = maps_dir()
-    if folder is None:
-        print("error: the real maps folder was not found; set TOMOSIM_MAPS", file=sys.stderr)
-        return 1
-    whole = merging.load_map(folder / f"{args.map}.yaml")
+    if args.map is None:
+        whole = generate_floorplan(args.floor).truth
+    else:
+        folder = maps_dir()
+        if folder is None:
+            print("error: the real maps folder was not found; set TOMOSIM_MAPS", file=sys.stderr)
+            return 1
+        whole = merging.load_map(folder / f"{args.map}.yaml")
     pair = cut_window_pairs(whole.data, count=1, rng=args.seed)[0]
     result = merging.estimate_transform(pair.map1, pair.map2)
     rms, rotation = transform_error(result.matrix, pair.truth, pair.map2)

@@ -25,12 +25,13 @@ from .summary import table_rows
 
 DOCS_FIGURES = (
     "sim_matching.png",
-    "exp_ap_hill_matching.png",
+    "exp1_matching.png",
     "sinograms.png",
     "partial_sinograms.png",
-    "halmstad_references.png",
 )
-"""The figures copied beside the report in the documentation folder."""
+"""The figures copied beside the report in the documentation folder: plots only.
+The reference overlays draw the shared maps themselves, which the project does
+not redistribute; they stay in the output folder."""
 MARKERS = "os^vD<>xP*"
 """Marker of each method's points, in column order (repeated past ten methods)."""
 KNOWN_GREY = 0.9
@@ -67,8 +68,8 @@ def draw_figures(
             f"{sim_rows[0]}: the overlap ratio of each pair (top, as in Figure 7) and each "
             "method's matching index (bottom, as in Figure 8), pairs sorted by overlap."
         )
-    for row in exp_rows:
-        name = f"exp_{row.split()[1]}_matching.png"
+    for index, row in enumerate(exp_rows, start=1):
+        name = f"exp{index}_matching.png"
         plot_overlap_and_matching(
             study,
             contenders,

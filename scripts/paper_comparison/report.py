@@ -30,7 +30,8 @@ ROW_DESCRIPTIONS = {
     "is unknown. The reference of a pair is the answer with the highest acceptance index "
     "among those that a method of another family (tomographic, paper, spectral, features, "
     "registration) agrees with; pairs on which no two families agree are not judged. For "
-    "the default run the overlays of the references (last figure) were checked by eye: "
+    "the default run the overlays of the references "
+    "(results/paper/halmstad_references.png) were checked by eye: "
     "each lays the hall, the corridor and the wings of the two sessions on each other, "
     "with up to about half a metre of bending between sessions. Success there means "
     "agreeing with that reference, so the row measures agreement more than accuracy.",
