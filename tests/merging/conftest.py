@@ -65,3 +65,26 @@ def synthetic_building(seed: int, shape: tuple[int, int] = (260, 360)) -> NDArra
 def building() -> NDArray[np.int8]:
     """A synthetic building (seed 3)."""
     return synthetic_building(3)
+
+
+UNMERGEABLE_CASES = ("empty", "all unknown", "single wall", "no overlap")
+"""Valid grid pairs that no method can merge; every method must refuse them."""
+
+
+def unmergeable_pair(case: str) -> tuple[NDArray[np.int8], NDArray[np.int8]]:
+    """The pair of grids named by ``case`` (one of :data:`UNMERGEABLE_CASES`)."""
+    rng = np.random.default_rng(4)
+    free = np.zeros((80, 90), dtype=np.int8)
+    if case == "empty":
+        return free, free
+    if case == "all unknown":
+        return np.full((50, 50), -1, np.int8), np.full((60, 40), -1, np.int8)
+    if case == "single wall":
+        wall = free.copy()
+        wall[40, 5:85] = 100
+        return wall, wall[::-1, ::-1].copy()
+    if case == "no overlap":
+        a = np.where(rng.random((80, 90)) < 0.04, 100, 0).astype(np.int8)
+        b = np.where(rng.random((70, 60)) < 0.04, 100, 0).astype(np.int8)
+        return a, b
+    raise ValueError(f"unknown case {case!r}; choose from {UNMERGEABLE_CASES}")

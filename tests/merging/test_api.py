@@ -11,6 +11,8 @@ from hypothesis.extra.numpy import arrays
 import merging
 from merging.grid import OccupancyGrid
 
+from .conftest import UNMERGEABLE_CASES, unmergeable_pair
+
 
 @pytest.mark.parametrize(
     ("bad", "error", "message"),
@@ -47,25 +49,9 @@ def test_different_resolutions_are_refused() -> None:
 
 
 @pytest.mark.parametrize("method", ["tomographic", "paper"])
-@pytest.mark.parametrize(
-    "case",
-    ["empty", "all unknown", "single wall", "no overlap"],
-)
+@pytest.mark.parametrize("case", UNMERGEABLE_CASES)
 def test_valid_but_unmergeable_input_is_not_accepted(method: str, case: str) -> None:
-    rng = np.random.default_rng(4)
-    free = np.zeros((80, 90), dtype=np.int8)
-    if case == "empty":
-        pair = (free, free)
-    elif case == "all unknown":
-        pair = (np.full((50, 50), -1, np.int8), np.full((60, 40), -1, np.int8))
-    elif case == "single wall":
-        wall = free.copy()
-        wall[40, 5:85] = 100
-        pair = (wall, wall[::-1, ::-1].copy())
-    else:
-        a = np.where(rng.random((80, 90)) < 0.04, 100, 0).astype(np.int8)
-        b = np.where(rng.random((70, 60)) < 0.04, 100, 0).astype(np.int8)
-        pair = (a, b)
+    pair = unmergeable_pair(case)
     result = merging.estimate_transform(*pair, method=method, rng=0)
     assert not result.accepted
     assert 0.0 <= result.confidence < 0.5

@@ -24,6 +24,7 @@ from merging.refine import SmoothedMap, constraint_strength
 from merging.transforms import apply_transform, rigid_matrix
 from merging.verify import confidence, prepare_map, verify
 
+from .conftest import UNMERGEABLE_CASES, unmergeable_pair
 from .test_tomographic import turned
 
 BASELINES = ("spectral", "sift", "harris", "shi_tomasi", "orb", "registration")
@@ -105,22 +106,9 @@ def test_bad_options_are_named(method: str, options, error, message) -> None:
 
 
 @pytest.mark.parametrize("method", BASELINES)
-@pytest.mark.parametrize("case", ["empty", "all unknown", "single wall", "no overlap"])
+@pytest.mark.parametrize("case", UNMERGEABLE_CASES)
 def test_valid_but_unmergeable_input_is_not_accepted(method: str, case: str) -> None:
-    rng = np.random.default_rng(4)
-    free = np.zeros((80, 90), dtype=np.int8)
-    if case == "empty":
-        pair = (free, free)
-    elif case == "all unknown":
-        pair = (np.full((50, 50), -1, np.int8), np.full((60, 40), -1, np.int8))
-    elif case == "single wall":
-        wall = free.copy()
-        wall[40, 5:85] = 100
-        pair = (wall, wall[::-1, ::-1].copy())
-    else:
-        a = np.where(rng.random((80, 90)) < 0.04, 100, 0).astype(np.int8)
-        b = np.where(rng.random((70, 60)) < 0.04, 100, 0).astype(np.int8)
-        pair = (a, b)
+    pair = unmergeable_pair(case)
     result = merging.estimate_transform(*pair, method=method, rng=0)
     assert not result.accepted
     assert 0.0 <= result.confidence < 0.5

@@ -10,26 +10,13 @@ import pytest
 
 from merging import OccupancyGrid, load_map, save_map
 from merging.metrics import transform_error
-from tomosim.cli import main
 from tomosim.commands.demo_maps import demo_pair
 from tomosim.commands.merge_report import format_table
 
+from .cli_support import assert_one_line_error, run
+
 MAX_ERROR_CELLS = 2.0
 """RMS error, in cells, the merger is held to (DESIGN.md's accuracy target)."""
-
-
-def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    status = main(argv)
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
-
-
-def assert_one_line_error(err: str, *fragments: str) -> None:
-    assert err.count("\n") == 1 and err.endswith("\n"), f"not one line: {err!r}"
-    assert err.startswith("tomosim: error: ")
-    assert "Traceback" not in err
-    for fragment in fragments:
-        assert fragment in err
 
 
 def write_grid(path: Path, seed: int) -> Path:

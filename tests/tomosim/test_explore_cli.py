@@ -14,23 +14,11 @@ from merging import OccupancyGrid, save_map
 from tests.tomosim.test_recording import verify
 from tomosim.cli import main
 
+from .cli_support import assert_one_line_error, run
+
 SHORT_RUN = ["--robots", "2", "--steps", "60", "--merge-interval", "20", "--seed", "3"]
 """A run short enough for the suite: two robots, three merge rounds on the default floor."""
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    status = main(argv)
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
-
-
-def assert_one_line_error(err: str, *fragments: str) -> None:
-    assert err.count("\n") == 1 and err.endswith("\n"), f"not one line: {err!r}"
-    assert err.startswith("tomosim: error: ")
-    assert "Traceback" not in err
-    for fragment in fragments:
-        assert fragment in err, err
 
 
 @pytest.fixture(scope="module")
