@@ -1,7 +1,9 @@
 """The public entry point: ``estimate_transform`` and its registry of methods.
 
 Every method is a function ``(cells1, cells2, *, rng, **options) -> MergeResult``
-taking two validated ``int8`` grids. :func:`estimate_transform` validates the
+taking two validated ``int8`` grids; a method with a settings object (the
+default's :class:`~merging.params.TomographicParams`) is registered with its
+type and also takes ``params=``. :func:`estimate_transform` validates the
 input, dispatches, and fills in what is common to all methods (the transform
 in metres, the total time, the empty-map guard).
 """
@@ -41,15 +43,23 @@ class MergeMethod(Protocol):
 
 
 _METHODS: dict[str, MergeMethod] = {}
+_PARAMS_TYPES: dict[str, type | None] = {}
 
 
-def register_method(name: str) -> Callable[[MergeMethod], MergeMethod]:
-    """Decorator registering a merging method under ``name``."""
+def register_method(
+    name: str, *, params_type: type | None = None
+) -> Callable[[MergeMethod], MergeMethod]:
+    """Decorator registering a merging method under ``name``.
+
+    ``params_type`` is the type of the settings object the method takes as
+    ``params=`` (None: it takes none).
+    """
 
     def decorate(function: MergeMethod) -> MergeMethod:
         if name in _METHODS:
             raise ValueError(f"a merging method named {name!r} is already registered")
         _METHODS[name] = function
+        _PARAMS_TYPES[name] = params_type
         return function
 
     return decorate
@@ -66,6 +76,7 @@ def estimate_transform(
     *,
     method: str = DEFAULT_METHOD,
     rng: RngLike = None,
+    params: object | None = None,
     **options: Any,
 ) -> MergeResult:
     """Estimate the transform taking ``map2``'s cells onto ``map1``'s.
@@ -80,6 +91,10 @@ def estimate_transform(
         the baselines.
     rng : numpy.random.Generator, int or None
         Randomness for methods that sample (the paper's Monte-Carlo step).
+    params : object, optional
+        The method's settings object, for a method that has one: a
+        :class:`merging.params.TomographicParams` for ``"tomographic"``
+        (default: its documented defaults).
     **options
         Passed to the method.
 
@@ -94,8 +109,9 @@ def estimate_transform(
     Raises
     ------
     TypeError, ValueError
-        For input that is not a grid in the ROS coding, or grids of different
-        resolutions.
+        For input that is not a grid in the ROS coding, grids of different
+        resolutions, an unknown method, or a ``params`` object the method
+        does not take.
 
     References
     ----------
@@ -107,6 +123,9 @@ def estimate_transform(
     cells2 = validate_cells(map2, name="map2")
     if method not in _METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {available_methods()}")
+    if params is not None:
+        _check_params(method, params)
+        options = {**options, "params": params}
     both_grids = isinstance(map1, OccupancyGrid) and isinstance(map2, OccupancyGrid)
     if both_grids and not np.isclose(map1.resolution, map2.resolution):  # type: ignore[union-attr]
         raise ValueError(
@@ -139,3 +158,19 @@ def estimate_transform(
         timings=timings,
         reason=result.reason,
     )
+
+
+def _check_params(method: str, params: object) -> None:
+    """Raise ``TypeError`` unless ``params`` is the settings type ``method`` takes."""
+    wanted = _PARAMS_TYPES[method]
+    if wanted is None:
+        with_params = sorted(name for name, kind in _PARAMS_TYPES.items() if kind is not None)
+        raise TypeError(
+            f"the {method!r} method takes no params object (got {type(params).__name__}); "
+            f"only {with_params} take one"
+        )
+    if not isinstance(params, wanted):
+        raise TypeError(
+            f"params for the {method!r} method must be a {wanted.__name__}, "
+            f"got {type(params).__name__}"
+        )

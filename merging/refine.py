@@ -23,43 +23,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from merging.params import FROM_START, GaussNewtonParams
 from merging.transforms import apply_transform, rotation_about
 from merging.verify import PreparedMap
 
-SIGMA_SCHEDULE = (2.0, 1.0, 0.6)
-"""Field widths in cells, widest first: 2 cells catches a coarse estimate a few
-cells off; 1 cell pins the optimum to a fraction of a cell; 0.6 cell resolves
-the last tenth of a cell (the median error halves, to about 0.1 cell)."""
-CURVATURE_SIGMA = 1.0
-"""Field width on which :func:`constraint_strength` measures curvature (its
-scale, ``STRENGTH_SCALE`` in :mod:`merging.verify`, was set on this width)."""
-ITERATIONS = 5
-"""Gauss-Newton steps per field width at most, by default."""
-SHARP_ITERATIONS = 10
-"""Steps allowed on the sharpest field for a final answer: converging the last
-tenth of a degree over a map 1000 cells wide takes a few more."""
-NEWTON_FACTOR = 2.0
-"""Step multiplier turning the half-way Gauss-Newton step into Newton's step."""
-BACKTRACKS = 2
-"""Times a step is halved when it lowers the objective, before giving up."""
-DAMPING = 1e-3
-"""Levenberg damping, relative to the mean diagonal of the normal matrix."""
-MAX_STEP_CELLS = 3.0
-"""A longer step is shortened: the linearisation holds only near walls."""
-CONVERGED_CELLS = 0.05
-"""A step moving map 2's cells less than this (in translation and, RMS, in
-rotation) ends a stage: far below the 2-cell accuracy asked for."""
-
-
-REFINE_POINTS = 1500
-"""Map 2 cells moved per iteration: three unknowns need far fewer, but walls in
-every direction must be represented."""
-LOCAL_MARGIN = 4.0
-"""Cells beyond where map 2 lands that a local field covers: room for the
-last steps of a refinement that starts within a cell or so."""
-DOWNSAMPLE_FROM_SIGMA = 2.0
-"""Fields at least this wide are computed on a grid of half resolution: a blur
-of two cells has nothing finer to keep, and it costs a quarter."""
+DEFAULT_GAUSS_NEWTON = GaussNewtonParams()
+"""The default step control, field and curvature settings."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,13 +58,22 @@ class SmoothedMap:
         ``(x, y)`` of map 1's occupied cells.
     shape : (rows, cols)
         Map 1's shape.
+    downsample_from_sigma : float
+        Fields at least this wide (cells) are computed at half resolution.
     """
 
-    __slots__ = ("_fields", "_shape", "_walls")
+    __slots__ = ("_downsample_from", "_fields", "_shape", "_walls")
 
-    def __init__(self, walls: NDArray[np.float64], shape: tuple[int, int]) -> None:
+    def __init__(
+        self,
+        walls: NDArray[np.float64],
+        shape: tuple[int, int],
+        *,
+        downsample_from_sigma: float = DEFAULT_GAUSS_NEWTON.downsample_from_sigma,
+    ) -> None:
         self._walls = walls
         self._shape = shape
+        self._downsample_from = downsample_from_sigma
         self._fields: dict[float, Field] = {}
 
     @property
@@ -112,7 +90,7 @@ class SmoothedMap:
         """
         if box is None and sigma in self._fields:
             return self._fields[sigma]
-        scale = 2.0 if sigma >= DOWNSAMPLE_FROM_SIGMA else 1.0
+        scale = 2.0 if sigma >= self._downsample_from else 1.0
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
         image = np.zeros((max(rows, 1), max(cols, 1)), dtype=np.float32)
@@ -175,10 +153,11 @@ def refine_transform(
     second: PreparedMap,
     matrix: NDArray[np.float64],
     *,
-    sigmas: tuple[float, ...] = SIGMA_SCHEDULE,
-    iterations: int = ITERATIONS,
+    sigmas: tuple[float, ...] = FROM_START.sigmas,
+    iterations: int = FROM_START.iterations,
     local: bool = False,
-    max_points: int = REFINE_POINTS,
+    max_points: int = FROM_START.points,
+    params: GaussNewtonParams = DEFAULT_GAUSS_NEWTON,
 ) -> NDArray[np.float64]:
     """Refine ``matrix`` (map 2 cells -> map 1 cells) to sub-cell accuracy.
 
@@ -187,7 +166,7 @@ def refine_transform(
     smoothed : SmoothedMap
         Map 1's fields.
     second : PreparedMap
-        Map 2; up to :data:`REFINE_POINTS` of its occupied cells are moved.
+        Map 2; up to ``max_points`` of its occupied cells are moved.
     matrix : (3, 3) float ndarray
         Starting transform.
     sigmas : tuple of float
@@ -196,9 +175,11 @@ def refine_transform(
         Gauss-Newton steps per width at most.
     local : bool
         Blur only the part of map 1 where map 2's cells land (plus
-        :data:`LOCAL_MARGIN`): for a start already within a cell or so.
+        ``params.local_margin``): for a start already within a cell or so.
     max_points : int
         Map 2 cells moved at most.
+    params : GaussNewtonParams
+        Step control and the local field's margin.
 
     Returns
     -------
@@ -209,20 +190,25 @@ def refine_transform(
     stride = max(1, int(np.ceil(len(second.points) / max_points)))
     points = second.points[::stride]
     for sigma in sigmas:
-        box = _landing_box(current, points, smoothed, sigma) if local else None
+        box = _landing_box(current, points, smoothed, sigma, params.local_margin) if local else None
         if local and box is None:
             return current
-        current = _gauss_newton(smoothed.field(sigma, box=box), points, current, iterations)
+        field = smoothed.field(sigma, box=box)
+        current = _gauss_newton(field, points, current, iterations, params)
     return current
 
 
 def _landing_box(
-    matrix: NDArray[np.float64], points: NDArray[np.float64], smoothed: SmoothedMap, sigma: float
+    matrix: NDArray[np.float64],
+    points: NDArray[np.float64],
+    smoothed: SmoothedMap,
+    sigma: float,
+    margin_cells: float,
 ) -> tuple[int, int, int, int] | None:
-    """Cells of map 1 where ``points`` land, grown by the blur and :data:`LOCAL_MARGIN`."""
+    """Cells of map 1 where ``points`` land, grown by the blur and ``margin_cells``."""
     rows, cols = smoothed.shape
     landed = apply_transform(matrix, points)
-    margin = LOCAL_MARGIN + 3.0 * sigma
+    margin = margin_cells + 3.0 * sigma
     x_lo = max(int(np.floor(landed[:, 0].min() - margin)), 0)
     y_lo = max(int(np.floor(landed[:, 1].min() - margin)), 0)
     x_hi = min(int(np.ceil(landed[:, 0].max() + margin)) + 1, cols)
@@ -237,11 +223,12 @@ def _gauss_newton(
     points: NDArray[np.float64],
     start: NDArray[np.float64],
     iterations: int,
+    params: GaussNewtonParams,
 ) -> NDArray[np.float64]:
     """Newton-length Gauss-Newton steps on one field; each evaluation also checks the last step.
 
     A step that lowers ``Σ M`` is taken back and halved (at most
-    :data:`BACKTRACKS` times in a row); the best transform seen is returned.
+    ``params.backtracks`` times in a row); the best transform seen is returned.
     """
     image, scale = field.image, field.scale
     best, best_total = start, -np.inf
@@ -249,7 +236,7 @@ def _gauss_newton(
     step = np.zeros(3)
     pivot = np.zeros(2)
     halvings = 0
-    for _ in range(iterations + BACKTRACKS):
+    for _ in range(iterations + params.backtracks):
         landed = apply_transform(current, points)
         moved = field.locate(landed)
         ok = _inside(moved, image)
@@ -258,7 +245,7 @@ def _gauss_newton(
         value, gx, gy = _bilinear(image, moved[ok, 0], moved[ok, 1])
         total = float(value.sum())
         if total <= best_total:
-            if halvings == BACKTRACKS:
+            if halvings == params.backtracks:
                 break
             step /= 2
             halvings += 1
@@ -270,12 +257,13 @@ def _gauss_newton(
         rel = landed[ok] - pivot
         jacobian = np.column_stack([gx, gy, -gx * rel[:, 1] + gy * rel[:, 0]])
         normal = jacobian.T @ jacobian
-        normal += DAMPING * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
-        step = NEWTON_FACTOR * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
+        normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
+        step = params.newton_factor * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
         length = float(np.hypot(step[0], step[1]))
-        if length > MAX_STEP_CELLS:
-            step *= MAX_STEP_CELLS / length
-        if length < CONVERGED_CELLS and abs(step[2]) * np.sqrt(np.mean(rel**2)) < CONVERGED_CELLS:
+        if length > params.max_step_cells:
+            step *= params.max_step_cells / length
+        turn = abs(step[2]) * np.sqrt(np.mean(rel**2))
+        if length < params.converged_cells and turn < params.converged_cells:
             break
         current = _step_matrix(step, pivot) @ best
     return best
@@ -288,38 +276,39 @@ def _step_matrix(step: NDArray[np.float64], pivot: NDArray[np.float64]) -> NDArr
     return update
 
 
-CURVATURE_STEP = 1.0
-"""Finite-difference step, in cells of RMS motion of map 2, for the curvature:
-one cell spans the sharp field's peak (sigma of 1 cell)."""
-
-
 def constraint_strength(
-    smoothed: SmoothedMap, second: PreparedMap, matrix: NDArray[np.float64], *, local: bool = False
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    local: bool = False,
+    params: GaussNewtonParams = DEFAULT_GAUSS_NEWTON,
 ) -> float:
     """How firmly the walls pin the transform down, in matching cells.
 
     The Hessian ``H`` of ``Σ M(T_ξ p)`` at ``matrix`` (central differences on
-    the sharpest field) is compared with ``G``, the mean squared motion of map
-    2's cells per unit of ``ξ``. The smallest generalised eigenvalue of
-    ``(-H, G)`` is the loss of matching cells per cell² of RMS motion along
-    the least constrained direction: close to the number of wall cells
+    the field of width ``params.curvature_sigma``) is compared with ``G``,
+    the mean squared motion of map 2's cells per unit of ``ξ``. The smallest
+    generalised eigenvalue of ``(-H, G)`` is the loss of matching cells per
+    cell² of RMS motion along the least constrained direction: close to the number of wall cells
     holding that direction (a cell on a wall loses about one per cell²), and
     near zero when the overlap is one straight wall that lets map 2 slide or
     turn. ``local`` blurs only where map 2 lands (see :func:`refine_transform`).
     """
-    stride = max(1, int(np.ceil(len(second.points) / REFINE_POINTS)))
+    stride = max(1, int(np.ceil(len(second.points) / params.curvature_points)))
     points = second.points[::stride]
-    box = _landing_box(matrix, points, smoothed, CURVATURE_SIGMA) if local else None
+    sigma = params.curvature_sigma
+    box = _landing_box(matrix, points, smoothed, sigma, params.local_margin) if local else None
     if local and box is None:
         return 0.0
-    field = smoothed.field(CURVATURE_SIGMA, box=box)
+    field = smoothed.field(sigma, box=box)
     landed = apply_transform(matrix, points)
     pivot = landed.mean(axis=0)
     rel = landed - pivot
     # Motion metric: translation moves every cell by 1, rotation by its radius.
     metric = np.diag([1.0, 1.0, float(np.mean(np.sum(rel**2, axis=1)))])
     # Steps of one cell of RMS motion along each coordinate.
-    steps = CURVATURE_STEP / np.sqrt(np.diag(metric))
+    steps = params.curvature_step / np.sqrt(np.diag(metric))
 
     def objective(delta: NDArray[np.float64]) -> float:
         update = rotation_about(delta[2], pivot)

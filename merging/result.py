@@ -1,4 +1,6 @@
-"""The result every merging method returns (the merger contract of DESIGN.md)."""
+"""The result every merging method returns: the merger contract (a transform, a
+confidence in [0, 1], and whether the method vouches for it; valid grids never
+raise, and `accepted=True` on a wrong transform is the worst failure)."""
 
 from __future__ import annotations
 
