@@ -16,7 +16,7 @@ from tomosim.commands.merge_report import format_table
 from .cli_support import assert_one_line_error, run
 
 MAX_ERROR_CELLS = 2.0
-"""RMS error, in cells, the merger is held to (DESIGN.md's accuracy target)."""
+"""RMS error, in cells, the merger is held to (the project's accuracy target for merges)."""
 
 
 def write_grid(path: Path, seed: int) -> Path:
