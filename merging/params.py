@@ -187,6 +187,9 @@ class GaussNewtonParams:
         Levenberg damping, relative to the mean diagonal of the normal matrix.
     max_step_cells : float
         A longer step is shortened: the linearisation holds only near walls.
+    max_step_sigmas : float
+        ... unless the field is wide: a step may be this many field widths
+        long, so that the wide fields of a coarse-to-fine search can travel.
     converged_cells : float
         A step moving map 2's cells less than this (in translation and, RMS,
         in rotation) ends a stage: far below the 2-cell accuracy asked for.
@@ -211,6 +214,7 @@ class GaussNewtonParams:
     backtracks: int = 2
     damping: float = 1e-3
     max_step_cells: float = 3.0
+    max_step_sigmas: float = 1.0
     converged_cells: float = 0.05
     local_margin: float = 4.0
     downsample_from_sigma: float = 2.0
@@ -293,6 +297,11 @@ class TomographicParams:
         a true but slightly misaligned transform can fit worse than one that
         lays a single outer corner on a corner, which the correlation
         (weighing how much overlaps) does not favour.
+    widest_per_block : float
+        Widest field of the first refinement stage, in blocks of the coarse
+        correlation grid: its hypotheses are off by up to half a block plus
+        their rotation error (see :func:`merging.tomographic.coarse_to_fine`).
+        Below 6 blocks' worth of map (800 cells) no wider field is added.
     keep_refined_margin : float
         Score by which a refined transform may verify worse than its start
         and still be kept: about one wall cell in fifty landing one cell
@@ -311,6 +320,7 @@ class TomographicParams:
     stages: tuple[RefineStage, ...] = DEFAULT_STAGES
     from_start: RefineStage = FROM_START
     correlation_refined: int = 2
+    widest_per_block: float = 0.75
     keep_refined_margin: float = 0.02
     distinct_cells: float = 4.0
 

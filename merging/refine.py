@@ -43,6 +43,7 @@ class Field:
     image: NDArray[np.float32]
     scale: float
     corner: tuple[int, int] = (0, 0)
+    sigma: float = 1.0
 
     def locate(self, cells: NDArray[np.float64]) -> NDArray[np.float64]:
         """Image coordinates of ``(N, 2)`` cell coordinates of map 1."""
@@ -90,7 +91,7 @@ class SmoothedMap:
         """
         if box is None and sigma in self._fields:
             return self._fields[sigma]
-        scale = 2.0 if sigma >= self._downsample_from else 1.0
+        scale = field_scale(sigma, self._downsample_from)
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
         image = np.zeros((max(rows, 1), max(cols, 1)), dtype=np.float32)
@@ -109,10 +110,23 @@ class SmoothedMap:
         # Scaled so that the centre of a one-cell wall is about 1.
         smooth = ndimage.gaussian_filter(image, width, truncate=3.0)
         smooth *= np.float32(np.sqrt(2 * np.pi) * width)
-        field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo))
+        field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo), sigma)
         if box is None:
             self._fields[sigma] = field
         return field
+
+
+def field_scale(sigma: float, downsample_from: float) -> float:
+    """Cells per field pixel for a field of width ``sigma``: 1 below ``downsample_from``.
+
+    From ``downsample_from`` on, the largest power of two not above ``sigma``
+    (at least 2): a blur of ``sigma`` cells has nothing finer to keep, and the
+    field of a coarse-to-fine search's widest stage then costs as much on a
+    4000-cell map as on a 400-cell one.
+    """
+    if sigma < downsample_from:
+        return 1.0
+    return float(max(2.0, 2.0 ** np.floor(np.log2(sigma))))
 
 
 def _bilinear(
@@ -255,16 +269,21 @@ def _gauss_newton(
         gx, gy = gx / scale, gy / scale
         pivot = landed[ok].mean(axis=0)
         rel = landed[ok] - pivot
-        jacobian = np.column_stack([gx, gy, -gx * rel[:, 1] + gy * rel[:, 0]])
+        # The rotation unknown is measured in cells of RMS motion (turn times the
+        # RMS radius), like the translation, so that damping and step limits
+        # treat all three alike on a map of any size.
+        radius = float(np.sqrt(np.mean(np.sum(rel**2, axis=1)))) + 1e-9
+        jacobian = np.column_stack([gx, gy, (-gx * rel[:, 1] + gy * rel[:, 0]) / radius])
         normal = jacobian.T @ jacobian
         normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
-        step = params.newton_factor * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
-        length = float(np.hypot(step[0], step[1]))
-        if length > params.max_step_cells:
-            step *= params.max_step_cells / length
-        turn = abs(step[2]) * np.sqrt(np.mean(rel**2))
-        if length < params.converged_cells and turn < params.converged_cells:
+        motion = params.newton_factor * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
+        length = float(np.linalg.norm(motion))
+        longest = max(params.max_step_cells, params.max_step_sigmas * field.sigma)
+        if length > longest:
+            motion *= longest / length
+        if length < params.converged_cells:
             break
+        step = np.array([motion[0], motion[1], motion[2] / radius])
         current = _step_matrix(step, pivot) @ best
     return best
 

@@ -68,6 +68,7 @@ Every setting is in :class:`~merging.params.TomographicParams`, passed as
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -203,15 +204,37 @@ def _screened(
     return [candidates[i] for i in order]
 
 
-def _refined(maps: _Maps, screened: list[NDArray[np.float64]]) -> list[Candidate]:
+def coarse_to_fine(stage: RefineStage, factor: int, params: TomographicParams) -> RefineStage:
+    """``stage`` with wider fields put before its own, to catch hypotheses of a coarse grid.
+
+    A hypothesis from a grid of ``factor``-cell blocks is off by up to half a
+    block in translation, plus its rotation error times the map's radius,
+    both growing with the map. Field widths double from the stage's widest
+    while they stay within ``params.widest_per_block`` blocks, so that each
+    width's answer lies within the next one's reach (a field catches about
+    twice its width) and a 4000-cell map starts as close as a 400-cell one.
+    """
+    widths: list[float] = []
+    width = 2.0 * max(stage.sigmas)
+    while width <= params.widest_per_block * factor:
+        widths.insert(0, width)
+        width *= 2.0
+    return replace(stage, sigmas=(*widths, *stage.sigmas)) if widths else stage
+
+
+def _refined(maps: _Maps, screened: list[NDArray[np.float64]], factor: int) -> list[Candidate]:
     """Walk the refinement schedule; returns the pool, the winner first.
 
     Each stage admits the next screened candidates (verified in full), ranks
     the pool and refines its best few; the last stage's first is the winner.
+    The first stage starts from fields as wide as the coarse grid needs
+    (:func:`coarse_to_fine`).
     """
     pool: list[Candidate] = []
     admitted = 0
-    for stage in maps.params.stages:
+    stages = maps.params.stages
+    stages = (coarse_to_fine(stages[0], factor, maps.params), *stages[1:])
+    for stage in stages:
         newcomers = screened[admitted : admitted + stage.admit]
         admitted += len(newcomers)
         pool += [(maps.verify(m), m) for m in newcomers]
@@ -259,7 +282,7 @@ def tomographic_merge(
     timings["verify"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    pool = _refined(maps, screened)
+    pool = _refined(maps, screened, factor)
     timings["refine"] = time.perf_counter() - clock
 
     best = pool[0][1]
