@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid, occupied_mask, validate_cells
+from merging.resample import to_resolution
 from merging.result import MergeResult
 from merging.transforms import cells_to_metres
 
@@ -109,9 +111,16 @@ def estimate_transform(
     Raises
     ------
     TypeError, ValueError
-        For input that is not a grid in the ROS coding, grids of different
-        resolutions, an unknown method, or a ``params`` object the method
-        does not take.
+        For input that is not a grid in the ROS coding, an unknown method,
+        or a ``params`` object the method does not take.
+
+    Notes
+    -----
+    Two :class:`OccupancyGrid` of different resolutions are merged by
+    coarsening the finer one to the coarser resolution
+    (:mod:`merging.resample`) for the search; ``matrix`` still takes map 2's
+    own cells to map 1's own cells, so it then scales by the ratio of the
+    resolutions, and ``matrix_metres`` is rigid.
 
     References
     ----------
@@ -127,11 +136,12 @@ def estimate_transform(
         _check_params(method, params)
         options = {**options, "params": params}
     both_grids = isinstance(map1, OccupancyGrid) and isinstance(map2, OccupancyGrid)
-    if both_grids and not np.isclose(map1.resolution, map2.resolution):  # type: ignore[union-attr]
-        raise ValueError(
-            f"map resolutions differ ({map1.resolution} m vs {map2.resolution} m); "  # type: ignore[union-attr]
-            "resample one map to the other's resolution first"
-        )
+    # Maps of different resolutions: the finer one is coarsened to the other's,
+    # the method runs on the pair, and its matrix is carried back to the
+    # original cells (where it then scales by the ratio of the resolutions).
+    to_search1, to_search2 = np.eye(3), np.eye(3)
+    if both_grids:
+        (cells1, to_search1), (cells2, to_search2) = _common_resolution(map1, map2)  # type: ignore[arg-type]
     generator = np.random.default_rng(rng)
     counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
     if min(counts) < MIN_OCCUPIED_CELLS:
@@ -147,17 +157,36 @@ def estimate_transform(
         result = _METHODS[method](cells1, cells2, rng=generator, **options)
     timings = dict(result.timings)
     timings["total"] = time.perf_counter() - start
-    metres = cells_to_metres(result.matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
+    matrix = np.linalg.inv(to_search1) @ result.matrix @ to_search2
+    metres = cells_to_metres(matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
     return MergeResult(
-        matrix=result.matrix,
+        matrix=matrix,
         confidence=float(np.clip(result.confidence, 0.0, 1.0)),
         accepted=bool(result.accepted),
         method=method,
         matrix_metres=metres,
-        hypotheses=result.hypotheses,
+        hypotheses=tuple(
+            replace(h, matrix=np.linalg.inv(to_search1) @ h.matrix @ to_search2)
+            for h in result.hypotheses
+        ),
         timings=timings,
         reason=result.reason,
+        evidence=dict(result.evidence),
     )
+
+
+def _common_resolution(
+    map1: OccupancyGrid, map2: OccupancyGrid
+) -> tuple[
+    tuple[NDArray[np.int8], NDArray[np.float64]], tuple[NDArray[np.int8], NDArray[np.float64]]
+]:
+    """Both grids' cells at the coarser of their resolutions, each with the matrix to them."""
+    coarser = max(map1.resolution, map2.resolution)
+    out = []
+    for grid in (map1, map2):
+        resampled, matrix = to_resolution(grid, coarser)
+        out.append((resampled.data, matrix))
+    return out[0], out[1]
 
 
 def _check_params(method: str, params: object) -> None:

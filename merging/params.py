@@ -94,6 +94,9 @@ class VerifyParams:
     max_points : int
         Occupied cells per map used for verification; more add time, not
         evidence.
+    max_open_points : int
+        Clear free cells per map used to count shared open space: it is
+        counted, not located, so fewer samples do (about 1 % precision).
     near_radius : int
         Cells (chessboard) within which a carried cell counts as landing on a
         wall: rasterising a rotated wall moves its cells by up to one cell.
@@ -104,8 +107,18 @@ class VerifyParams:
     conflict_weight : float
         What a conflicting cell costs relative to what an agreeing one earns.
     overlap_preference : float
-        Fit (quality) that a tenfold larger overlap is worth when ranking
-        hypotheses.
+        Fit (quality) that a tenfold larger wall overlap is worth when
+        ranking hypotheses.
+    space_preference : float
+        Fit (quality) that a tenfold larger shared open space (free cells
+        landing on free cells) is worth when ranking hypotheses. Maps of
+        separate sessions bend against each other and draw walls 2-3 cells
+        thick, so a right placement lays 20-40 % of the walls beside the
+        other map's and fits no better than a wrong one that lays a corner
+        on a corner; but it lays open space on open space, hundreds of times
+        more than the wrong one. Set on the even-numbered E5 session pairs
+        and window pairs of four maps (any value from 1 to 2 ranks every
+        window pair as 0.05 alone did), checked on the odd-numbered ones.
     screen_stride : int
         Hypotheses are first screened with every ``screen_stride``-th
         verification point (about 1000 per map), enough to rank them; the
@@ -113,10 +126,12 @@ class VerifyParams:
     """
 
     max_points: int = 4000
+    max_open_points: int = 1500
     near_radius: int = 1
     conflict_clearance: int = 2
     conflict_weight: float = 3.0
     overlap_preference: float = 0.05
+    space_preference: float = 1.5
     screen_stride: int = 4
 
 
@@ -138,6 +153,15 @@ class ConfidenceParams:
         0.7-0.86.
     fit_width : float
         Width of the fit factor's logistic, in quality.
+    fit_tolerance : int
+        For the default method, the fit is the better of the quality above
+        and the quality with walls counted as met within this many cells
+        (chessboard; conflicts only beyond it plus the clearance): two maps
+        of one building rasterised independently (two sources, two sessions)
+        draw a wall up to a few cells apart. On 400 low-overlap window pairs
+        of four maps (seeds 11 and 3) the highest confidence of a wrong
+        placement rose from 0.35 to 0.43 with it, below the threshold; fresh
+        seeds are checked by ``scripts/bench_real_maps.py low-overlap``.
     support_scale : float
         Agreeing cells (full resolution) at which support reaches 1 - 1/e:
         about four metres of wall at 0.05 m, below which a match is too small
@@ -164,12 +188,85 @@ class ConfidenceParams:
 
     fit_centre: float = 0.80
     fit_width: float = 0.06
+    fit_tolerance: int = 3
     support_scale: float = 80.0
     distinct_margin: float = 0.25
     distinct_width: float = 0.05
     strength_scale: float = 10.0
     shared_space_scale: float = 1000.0
     accept: float = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class RobustParams:
+    """The second way to vouch for a merge: much consistent evidence, for maps that bend.
+
+    Maps of one floor from separate sessions or robots bend against each
+    other by up to half a metre and draw walls 2-3 cells thick: even the
+    right placement lays 20-40 % of one map's walls on the other's open
+    space, so the fit factor of :class:`ConfidenceParams` refuses it. Such a
+    placement is vouched for instead when *all* of these hold (each a
+    logistic factor passing one half at its threshold; the confidence is the
+    weakest of them, :func:`merging.verify.robust_confidence`):
+
+    Attributes
+    ----------
+    margin : float
+        Ranking score (:attr:`merging.verify.Verification.score`) by which the
+        placement beats the best *different* one.
+    agreeing : float
+        Wall cells (both directions) that land on walls: a large overlap,
+        about 250 m of wall at 0.05 m. Wrong placements of low-overlap window
+        pairs reach 4400.
+    tolerance : int
+        Cells (chessboard) within which a carried wall cell counts as
+        agreeing for the tolerant fit: the bending seen between sessions.
+    agreement : float
+        Fraction of carried wall cells within ``tolerance`` of a wall.
+    quality : float
+        Tolerant quality, agreement minus ``VerifyParams.conflict_weight``
+        times the fraction landing on clear free space beyond the tolerance.
+    open_share : float
+        Shared clear free space (both directions) over twice the smaller
+        map's clear free space: how much of the maps' open space overlaps.
+    open_consistency : float
+        Of the clear free cells carried onto known cells of the other map,
+        the fraction landing on its clear free space. Right session pairs of
+        E5 score 0.93-0.97; wrong placements that overlap a lot, below 0.92.
+    strength : float
+        Constraint strength at the widest of the curvature widths 1, 2 and 4
+        cells (scaled by the width squared, to matching cells per cell² at
+        one cell): ragged walls make the sharpest curvature noisy, but a
+        corridor that lets the maps slide stays weak at every width.
+    widths : tuple of float
+        Logistic widths of the factors, in the units of each threshold
+        (margin, log10 of agreeing, agreement, quality, open share, open
+        consistency, log10 of strength): narrow, so that each is nearly a
+        pass-fail test.
+
+    These thresholds were set on the even-numbered of the 109 E5 session
+    pairs and on window pairs of four maps (seeds 2020 and 11), and checked
+    on the odd-numbered E5 pairs and other seeds
+    (``scripts/bench_real_maps.py``).
+    """
+
+    margin: float = 0.3
+    agreeing: float = 5000.0
+    tolerance: int = 4
+    agreement: float = 0.5
+    quality: float = -0.4
+    open_share: float = 0.2
+    open_consistency: float = 0.90
+    strength: float = 2.0
+    widths: tuple[float, float, float, float, float, float, float] = (
+        0.03,
+        0.02,
+        0.02,
+        0.03,
+        0.02,
+        0.005,
+        0.05,
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -285,7 +382,7 @@ class TomographicParams:
 
     Attributes
     ----------
-    rotation, translation, verify, confidence, gauss_newton
+    rotation, translation, verify, confidence, robust, gauss_newton
         The stage settings (see each class).
     stages : tuple of RefineStage
         The refinement schedule, walked in order.
@@ -316,6 +413,7 @@ class TomographicParams:
     translation: TranslationParams = field(default_factory=TranslationParams)
     verify: VerifyParams = field(default_factory=VerifyParams)
     confidence: ConfidenceParams = field(default_factory=ConfidenceParams)
+    robust: RobustParams = field(default_factory=RobustParams)
     gauss_newton: GaussNewtonParams = field(default_factory=GaussNewtonParams)
     stages: tuple[RefineStage, ...] = DEFAULT_STAGES
     from_start: RefineStage = FROM_START

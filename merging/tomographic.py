@@ -57,9 +57,12 @@ Steps
 3. Screening: every hypothesis carries each map's walls into the other.
 4. Refinement: the schedule of :class:`~merging.params.RefineStage` rows,
    each refining fewer candidates on finer fields.
-5. Confidence: five factors (fit, support, distinctiveness against the best
-   *different* hypothesis, constraint strength, shared open space), see
-   :func:`merging.verify.confidence`; only confident results are accepted.
+5. Verdict: a close fit (five factors: fit, support, distinctiveness
+   against the best *different* hypothesis, constraint strength, shared
+   open space) or, for maps that bend against each other, robust evidence
+   (a large overlap whose walls meet within a few cells and whose open space
+   lies on open space), see :mod:`merging.verdict`; only confident results
+   are accepted, and a refusal says why.
 
 Every setting is in :class:`~merging.params.TomographicParams`, passed as
 ``merging.estimate_transform(..., params=...)``.
@@ -78,10 +81,11 @@ from merging.angular import angular_spectrum, rotation_correlation, rotation_pea
 from merging.api import register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
-from merging.refine import SmoothedMap, constraint_strength, refine_transform
+from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
-from merging.transforms import apply_transform
-from merging.verify import PreparedMap, Verification, confidence, prepare_map, verify
+from merging.transforms import apply_transform, translation_matrix
+from merging.verdict import judge
+from merging.verify import PreparedMap, Verification, prepare_map, verify
 
 Candidate = tuple[Verification, NDArray[np.float64]]
 """A hypothesis and its verification."""
@@ -105,8 +109,8 @@ class _Maps:
             downsample_from_sigma=params.gauss_newton.downsample_from_sigma,
         )
 
-    def verify(self, matrix: NDArray[np.float64], *, space: bool = False) -> Verification:
-        return verify(self.first, self.second, matrix, space=space, params=self.params.verify)
+    def verify(self, matrix: NDArray[np.float64]) -> Verification:
+        return verify(self.first, self.second, matrix, params=self.params.verify)
 
     def refine(self, candidate: Candidate, stage: RefineStage) -> Candidate:
         """Refine a candidate; keep the start only when the refined one verifies clearly worse.
@@ -195,7 +199,7 @@ def _screened(
     params = maps.params
     stride = params.verify.screen_stride
     scores = [
-        rank(verify(maps.first, maps.second, m, stride=stride, space=False, params=params.verify))
+        rank(verify(maps.first, maps.second, m, stride=stride, params=params.verify))
         for m in candidates
     ]
     by_correlation = [int(i) for i in np.argsort(correlation)[::-1][: params.correlation_refined]]
@@ -261,6 +265,36 @@ def tomographic_merge(
             f"the tomographic method takes no options, got {sorted(options)}; "
             "pass its settings as params=TomographicParams(...)"
         )
+    # Only the observed part of each grid matters: searching within it makes the
+    # time follow the mapped building, not the canvas it was drawn on.
+    (crop1, offset1), (crop2, offset2) = observed_part(cells1), observed_part(cells2)
+    result = _merge_observed(crop1, crop2, params)
+    into1, out_of2 = translation_matrix(offset1), translation_matrix(-offset2)
+    return replace(
+        result,
+        matrix=into1 @ result.matrix @ out_of2,
+        hypotheses=tuple(replace(h, matrix=into1 @ h.matrix @ out_of2) for h in result.hypotheses),
+    )
+
+
+def observed_part(cells: NDArray[np.int8]) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
+    """The smallest box of ``cells`` holding every observed cell, and its corner ``(x, y)``.
+
+    A grid with no observed cell is returned whole, at ``(0, 0)``.
+    """
+    known = cells >= 0
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if len(rows) == 0:
+        return cells, np.zeros(2)
+    box = cells[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    return box, np.array([cols[0], rows[0]], dtype=float)
+
+
+def _merge_observed(
+    cells1: NDArray[np.int8], cells2: NDArray[np.int8], params: TomographicParams
+) -> MergeResult:
+    """:func:`tomographic_merge` on grids cropped to their observed parts."""
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     first = prepare_map(cells1, params=params.verify)
@@ -287,7 +321,7 @@ def tomographic_merge(
 
     best = pool[0][1]
     runner_up = next(
-        (v for v, m in pool[1:] if _rms_between(m, best, second.points) > params.distinct_cells),
+        (c for c in pool[1:] if _rms_between(c[1], best, second.points) > params.distinct_cells),
         None,
     )
     hypotheses = tuple(
@@ -299,35 +333,23 @@ def tomographic_merge(
 def _judged(
     maps: _Maps,
     best: NDArray[np.float64],
-    runner_up: Verification | None,
+    runner_up: Candidate | None,
     hypotheses: tuple[Hypothesis, ...],
     timings: dict[str, float],
 ) -> MergeResult:
     """The result for ``best``: its confidence, the verdict and, when refused, why."""
-    params = maps.params
-    check = maps.verify(best, space=True)  # with the shared open space, for confidence
-    strength = constraint_strength(
-        maps.smoothed, maps.second, best, local=True, params=params.gauss_newton
-    )
-    score = confidence(check, runner_up, strength=strength, params=params.confidence)
-    accepted = score >= params.confidence.accept
-    reason = ""
-    if not accepted:
-        runner = "none" if runner_up is None else f"{runner_up.net:.0f}"
-        reason = (
-            f"confidence {score:.2f} below {params.confidence.accept}: agreement "
-            f"{check.agreement:.2f}, conflict {check.conflict:.2f}, "
-            f"{check.agreeing:.0f} matching wall cells, net {check.net:.0f} "
-            f"against the runner-up's {runner}, constraint {strength:.1f}"
-        )
+    clock = time.perf_counter()
+    verdict = judge(maps.first, maps.second, maps.smoothed, best, runner_up, maps.params)
+    timings["judge"] = time.perf_counter() - clock
     return MergeResult(
         matrix=best,
-        confidence=score,
-        accepted=accepted,
+        confidence=verdict.confidence,
+        accepted=verdict.accepted,
         method="tomographic",
         hypotheses=hypotheses,
         timings=timings,
-        reason=reason,
+        reason=verdict.reason,
+        evidence=verdict.evidence,
     )
 
 
@@ -356,17 +378,20 @@ def refine_from(
         Settings; ``from_start`` is the refinement run.
     """
     clock = time.perf_counter()
-    first = prepare_map(cells1, params=params.verify)
-    second = prepare_map(cells2, params=params.verify)
+    (crop1, offset1), (crop2, offset2) = observed_part(cells1), observed_part(cells2)
+    first = prepare_map(crop1, params=params.verify)
+    second = prepare_map(crop2, params=params.verify)
     maps = _Maps(first, second, params)
-    start = np.asarray(matrix, dtype=float)
+    into1, out_of2 = translation_matrix(offset1), translation_matrix(-offset2)
+    start = np.linalg.inv(into1) @ np.asarray(matrix, dtype=float) @ np.linalg.inv(out_of2)
     refined = maps.refine((maps.verify(start), start), params.from_start)
     timings = {"refine": time.perf_counter() - clock}
-    check = refined[0]
+    check, best = refined[0], into1 @ refined[1] @ out_of2
     hypotheses = (
-        Hypothesis(refined[1], rank(check), check.agreement, check.conflict, int(check.overlap)),
+        Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
     )
-    return _judged(maps, refined[1], None, hypotheses, timings)
+    result = _judged(maps, refined[1], None, hypotheses, timings)
+    return replace(result, matrix=best)
 
 
 register_method("tomographic", params_type=TomographicParams)(tomographic_merge)

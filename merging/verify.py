@@ -20,13 +20,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.grid import free_mask, occupied_mask
-from merging.params import ConfidenceParams, VerifyParams
+from merging.params import ConfidenceParams, RobustParams, VerifyParams
 from merging.transforms import apply_transform
 
 DEFAULT_VERIFY = VerifyParams()
 """The default verification settings."""
 DEFAULT_CONFIDENCE = ConfidenceParams()
 """The default confidence factors and acceptance threshold."""
+DEFAULT_ROBUST = RobustParams()
+"""The default thresholds of the robust way to vouch for a merge."""
 ACCEPT_CONFIDENCE = DEFAULT_CONFIDENCE.accept
 """Confidence at or above which a result is accepted, by default."""
 
@@ -52,7 +54,7 @@ class PreparedMap:
         Free cells more than ``near_radius + conflict_clearance`` cells
         (chessboard) from a wall.
     open_points : (M, 2) float ndarray
-        ``(x, y)`` of at most ``VerifyParams.max_points`` clear free cells.
+        ``(x, y)`` of at most ``VerifyParams.max_open_points`` clear free cells.
     open_weight : float
         Clear free cells each of those stands for.
     """
@@ -102,7 +104,7 @@ def prepare_map(cells: NDArray[np.int8], *, params: VerifyParams = DEFAULT_VERIF
     near = dilate(occupied, params.near_radius)
     blocked = dilate(occupied, params.near_radius + params.conflict_clearance)
     clear_free = free_mask(cells) & ~blocked
-    open_points, open_weight = _spread(clear_free, params.max_points)
+    open_points, open_weight = _spread(clear_free, params.max_open_points)
     return PreparedMap(
         cells, all_points, points, weight, near, clear_free, open_points, open_weight
     )
@@ -143,6 +145,9 @@ class Verification:
     overlap_preference : float
         Fit a tenfold larger overlap is worth in :attr:`score`
         (``VerifyParams.overlap_preference``).
+    space_preference : float
+        Fit a tenfold larger shared open space is worth in :attr:`score`
+        (``VerifyParams.space_preference``).
     """
 
     agreement: float
@@ -152,6 +157,7 @@ class Verification:
     shared_space: float = 0.0
     conflict_weight: float = DEFAULT_VERIFY.conflict_weight
     overlap_preference: float = DEFAULT_VERIFY.overlap_preference
+    space_preference: float = DEFAULT_VERIFY.space_preference
 
     @property
     def quality(self) -> float:
@@ -170,14 +176,19 @@ class Verification:
 
     @property
     def score(self) -> float:
-        """The ranking score: :attr:`quality` plus a weak preference for larger overlaps.
+        """The ranking score: :attr:`quality`, plus preferences for larger overlaps.
 
         The fit fraction alone lets one exactly fitting corner of a building
         tie the whole building; the net count alone lets a large, loosely
-        fitting overlap beat a smaller exact one. A tenfold larger overlap is
-        worth :attr:`overlap_preference` of fit.
+        fitting overlap beat a smaller exact one. A tenfold larger wall
+        overlap is worth :attr:`overlap_preference` of fit, a tenfold larger
+        shared open space :attr:`space_preference` (see
+        :class:`~merging.params.VerifyParams`; 0 when the space was not
+        counted).
         """
-        return self.quality + self.overlap_preference * float(np.log10(max(self.overlap, 1.0)))
+        walls = self.overlap_preference * float(np.log10(max(self.overlap, 1.0)))
+        space = self.space_preference * float(np.log10(self.shared_space + 1.0))
+        return self.quality + walls + space
 
 
 def _landing(points: NDArray[np.float64], target: PreparedMap) -> tuple[float, float, float]:
@@ -239,7 +250,7 @@ def verify(
         ) + _open_landing(apply_transform(inverse, first.open_points[::stride]), second) * (
             first.open_weight * stride
         )
-    weights = (params.conflict_weight, params.overlap_preference)
+    weights = (params.conflict_weight, params.overlap_preference, params.space_preference)
     if known <= 0:
         return Verification(0.0, 0.0, 0.0, 0.0, shared, *weights)
     return Verification(near / known, clear / known, known, near, shared, *weights)
@@ -280,9 +291,15 @@ def confidence_factors(
     *,
     strength: float | None = None,
     params: ConfidenceParams = DEFAULT_CONFIDENCE,
+    fit_quality: float | None = None,
 ) -> tuple[float, float, float, float, float]:
-    """The five factors of :func:`confidence`: fit, support, distinctiveness, constraint, space."""
-    fit = 1.0 / (1.0 + np.exp(-(best.quality - params.fit_centre) / params.fit_width))
+    """The five factors of :func:`confidence`: fit, support, distinctiveness, constraint, space.
+
+    ``fit_quality`` replaces ``best.quality`` in the fit factor when given
+    (the default method passes the quality at ``ConfidenceParams.fit_tolerance``).
+    """
+    quality = best.quality if fit_quality is None else fit_quality
+    fit = 1.0 / (1.0 + np.exp(-(quality - params.fit_centre) / params.fit_width))
     support = 1.0 - np.exp(-best.agreeing / params.support_scale)
     share = 0.0
     if runner_up is not None and best.net > 0:
@@ -295,3 +312,124 @@ def confidence_factors(
     )
     shared = 1.0 - np.exp(-best.shared_space / params.shared_space_scale)
     return (float(fit), float(support), float(distinct), float(constrained), float(shared))
+
+
+def tolerant_fit(
+    first: PreparedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    tolerance: int,
+    params: VerifyParams = DEFAULT_VERIFY,
+) -> tuple[float, float]:
+    """``(agreement, quality)`` of ``matrix`` with walls counted as met within ``tolerance`` cells.
+
+    As :func:`verify`, but a carried wall cell agrees within ``tolerance``
+    cells (chessboard) of a wall, and conflicts on free space more than
+    ``tolerance + conflict_clearance`` cells from any wall: the fit of maps
+    that bend against each other by up to ``tolerance`` cells.
+    """
+    inverse = np.linalg.inv(matrix)
+    known = near = clear = 0.0
+    for points, target, move, weight in (
+        (second.points, first, matrix, second.point_weight),
+        (first.points, second, inverse, first.point_weight),
+    ):
+        occupied = occupied_mask(target.cells)
+        grown = dilate(occupied, tolerance)
+        far_free = free_mask(target.cells) & ~dilate(
+            occupied, tolerance + params.conflict_clearance
+        )
+        cols, rows, inside = _cells_of(apply_transform(move, points), target.shape)
+        rows, cols = rows[inside], cols[inside]
+        on_known = target.cells[rows, cols] >= 0
+        on_wall = grown[rows, cols]
+        known += float(np.count_nonzero(on_known | on_wall)) * weight
+        near += float(np.count_nonzero(on_wall)) * weight
+        clear += float(np.count_nonzero(far_free[rows, cols])) * weight
+    if known <= 0:
+        return 0.0, 0.0
+    return near / known, (near - params.conflict_weight * clear) / known
+
+
+def open_consistency(first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float64]) -> float:
+    """Of the clear free cells carried onto known cells of the other map, the share on clear free.
+
+    Both directions pooled. Open space laid on open space is what a right
+    placement of two maps of one floor does, however much their walls bend;
+    a wrong one lays open rooms across the other map's walls and clutter.
+    Returns 0 when no clear free cell lands on a known cell.
+    """
+    on_known = on_clear = 0.0
+    for points, target, move, weight in (
+        (second.open_points, first, matrix, second.open_weight),
+        (first.open_points, second, np.linalg.inv(matrix), first.open_weight),
+    ):
+        cols, rows, inside = _cells_of(apply_transform(move, points), target.shape)
+        rows, cols = rows[inside], cols[inside]
+        on_known += float(np.count_nonzero(target.cells[rows, cols] >= 0)) * weight
+        on_clear += float(np.count_nonzero(target.clear_free[rows, cols])) * weight
+    return on_clear / on_known if on_known > 0 else 0.0
+
+
+def open_cells(prepared: PreparedMap) -> float:
+    """How many clear free cells the map has (``open_points`` times the cells each stands for)."""
+    return len(prepared.open_points) * prepared.open_weight
+
+
+def _cells_of(
+    points: NDArray[np.float64], shape: tuple[int, int]
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """Nearest cells ``(cols, rows)`` of ``(x, y)`` points and which lie inside ``shape``."""
+    cols = np.rint(points[:, 0]).astype(np.intp)
+    rows = np.rint(points[:, 1]).astype(np.intp)
+    inside = (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
+    return cols, rows, inside
+
+
+ROBUST_FACTORS = (
+    "margin",
+    "agreeing",
+    "agreement",
+    "quality",
+    "open_share",
+    "open_consistency",
+    "strength",
+)
+"""Names of the factors of :func:`robust_confidence`, in the order of ``RobustParams.widths``."""
+
+
+def robust_confidence(
+    measures: dict[str, float], params: RobustParams = DEFAULT_ROBUST
+) -> tuple[float, dict[str, float]]:
+    """The second way to vouch for a merge (see :class:`~merging.params.RobustParams`).
+
+    Parameters
+    ----------
+    measures : dict
+        ``margin``, ``agreeing``, ``agreement``, ``quality``, ``open_share``,
+        ``open_consistency`` and ``strength`` of the placement, in the units
+        of :class:`~merging.params.RobustParams`.
+
+    Returns
+    -------
+    confidence : float
+        The weakest of the factors: at least one half exactly when every
+        measure reaches its threshold.
+    factors : dict
+        Each factor, in ``[0, 1]``.
+    """
+    thresholds = {
+        "margin": (measures["margin"], params.margin),
+        "agreeing": (np.log10(max(measures["agreeing"], 1.0)), np.log10(params.agreeing)),
+        "agreement": (measures["agreement"], params.agreement),
+        "quality": (measures["quality"], params.quality),
+        "open_share": (measures["open_share"], params.open_share),
+        "open_consistency": (measures["open_consistency"], params.open_consistency),
+        "strength": (np.log10(max(measures["strength"], 1e-3)), np.log10(params.strength)),
+    }
+    factors = {
+        name: float(1.0 / (1.0 + np.exp(-(value - threshold) / width)))
+        for (name, (value, threshold)), width in zip(thresholds.items(), params.widths, strict=True)
+    }
+    return min(factors.values()), factors
