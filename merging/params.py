@@ -207,7 +207,7 @@ class RobustParams:
     space, so the fit factor of :class:`ConfidenceParams` refuses it. Such a
     placement is vouched for instead when *all* of these hold (each a
     logistic factor passing one half at its threshold; the confidence is the
-    weakest of them, :func:`merging.verify.robust_confidence`):
+    weakest of them, :func:`merging.robust.robust_confidence`):
 
     Attributes
     ----------

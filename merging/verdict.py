@@ -6,7 +6,7 @@ Two ways to vouch, either is enough (the confidence is the larger):
   within a cell, there is enough of them, no different placement explains
   nearly as much, they pin the transform down and both maps saw common open
   space. Window pairs of one map and a robot's growing maps pass this way;
-* the **robust evidence** of :func:`merging.verify.robust_confidence`: for
+* the **robust evidence** of :func:`merging.robust.robust_confidence`: for
   maps of separate sessions, which bend and draw thick walls, a large
   overlap whose walls meet within a few cells, whose open space lies on open
   space, and which no different placement comes near.
@@ -26,17 +26,9 @@ from numpy.typing import NDArray
 
 from merging.params import GaussNewtonParams, TomographicParams
 from merging.refine import SmoothedMap, constraint_strength
+from merging.robust import open_cells, open_consistency, robust_confidence, tolerant_fit
 from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
-from merging.verify import (
-    PreparedMap,
-    Verification,
-    confidence_factors,
-    open_cells,
-    open_consistency,
-    robust_confidence,
-    tolerant_fit,
-    verify,
-)
+from merging.verify import PreparedMap, Verification, confidence_factors, verify
 
 CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
 """Names of the five factors of :func:`merging.verify.confidence`, in its order."""
