@@ -9,10 +9,12 @@ import pytest
 
 import merging
 from merging.metrics import transform_error
-from merging.params import DEFAULT_STAGES, TomographicParams
+from merging.params import DEFAULT_STAGES, RobustParams, TomographicParams
 from merging.resample import coarsen_cells, scale_matrix
+from merging.robust import open_consistency, robust_confidence, tolerant_fit
 from merging.tomographic import coarse_to_fine
 from merging.transforms import apply_transform, rigid_matrix
+from merging.verify import prepare_map
 
 from .conftest import synthetic_building
 from .test_tomographic import turned
@@ -138,3 +140,42 @@ def test_coarsening_keeps_every_wall_and_the_frame() -> None:
     # (x' + 0.5) 2r.
     point = apply_transform(scale_matrix(2.0), np.array([[3.0, 5.0]]))[0]
     assert np.allclose((point + 0.5) * 2.0, [3.5, 5.5])
+
+
+def test_tolerant_fit_meets_walls_a_few_cells_apart() -> None:
+    # Map 2's wall drawn 4 cells beside map 1's: a conflict at one cell, met at four.
+    first = np.zeros((60, 80), dtype=np.int8)
+    first[30, 5:75] = 100
+    second = np.zeros((60, 80), dtype=np.int8)
+    second[34, 5:75] = 100
+    prepared1, prepared2 = prepare_map(first), prepare_map(second)
+    strict_agreement, strict_quality = tolerant_fit(prepared1, prepared2, np.eye(3), tolerance=1)
+    agreement, quality = tolerant_fit(prepared1, prepared2, np.eye(3), tolerance=4)
+    assert strict_agreement == 0.0 and strict_quality < 0.0
+    assert agreement == pytest.approx(1.0) and quality == pytest.approx(1.0)
+
+
+def test_open_space_on_open_space() -> None:
+    grid = synthetic_building(6)
+    prepared = prepare_map(grid)
+    assert open_consistency(prepared, prepared, np.eye(3)) == pytest.approx(1.0)
+    # Shifted by half a room, open space lands on walls and their margins.
+    assert open_consistency(prepared, prepared, rigid_matrix(40.0, 25.0, 0.0)) < 0.9
+
+
+def test_robust_confidence_is_its_weakest_factor() -> None:
+    params = RobustParams()
+    passing = {
+        "margin": 1.0,
+        "agreeing": 20000.0,
+        "agreement": 0.8,
+        "quality": 0.2,
+        "open_share": 0.7,
+        "open_consistency": 0.95,
+        "strength": 30.0,
+    }
+    value, factors = robust_confidence(passing, params)
+    assert value > 0.9 and set(factors) == set(passing)
+    for name, low in (("margin", 0.1), ("agreeing", 3000.0), ("open_consistency", 0.85)):
+        value, factors = robust_confidence({**passing, name: low}, params)
+        assert value < 0.5 and value == factors[name]
