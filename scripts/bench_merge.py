@@ -218,6 +218,9 @@ def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str
         for size in sizes:
             cells = []
             for m in methods:
+                if size not in times[m]:
+                    cells.append(f"not timed (over {SLOW:.0f} s at a smaller size)")
+                    continue
                 t = np.array(times[m][size]) * 1000
                 q1, q3 = np.percentile(t, [25, 75])
                 cells.append(f"{np.median(t):.0f} ({q1:.0f}-{q3:.0f})")
