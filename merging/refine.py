@@ -31,6 +31,11 @@ DEFAULT_GAUSS_NEWTON = GaussNewtonParams()
 """The default step control, field and curvature settings."""
 
 
+WHOLE_FIELD_SHARE = 0.5
+"""Share of map 1's area above which a local field is the whole map's (cached) one:
+its values are the same where map 2 lands, and it is reused."""
+
+
 @dataclass(frozen=True, slots=True)
 class Field:
     """Map 1's walls blurred at one width, over all of map 1 or a box of it.
@@ -87,8 +92,14 @@ class SmoothedMap:
 
         ``box = (x_lo, y_lo, x_hi, y_hi)`` in cells (exclusive upper bounds)
         computes the field of that part only, uncached: cheaper when only
-        the overlap matters.
+        the overlap matters. A box covering more than
+        :data:`WHOLE_FIELD_SHARE` of the map takes the whole map's field
+        instead, computed once for every candidate and the curvature.
         """
+        if box is not None:
+            x_lo, y_lo, x_hi, y_hi = box
+            if (x_hi - x_lo) * (y_hi - y_lo) > WHOLE_FIELD_SHARE * self._shape[0] * self._shape[1]:
+                box = None
         if box is None and sigma in self._fields:
             return self._fields[sigma]
         scale = field_scale(sigma, self._downsample_from)
