@@ -162,6 +162,13 @@ class ConfidenceParams:
         of four maps (seeds 11 and 3) the highest confidence of a wrong
         placement rose from 0.35 to 0.43 with it, below the threshold; fresh
         seeds are checked by ``scripts/bench_real_maps.py low-overlap``.
+    tolerant_support : float
+        Agreeing wall cells (both directions) a placement needs before the
+        tolerant fit counts: the wider the tolerance, the likelier walls meet
+        by chance, so it needs more of them (about 100 m of wall at 0.05 m).
+        Small robot maps early in an episode, which have a few hundred, are
+        held to the one-cell fit: with the tolerant fit alone, one such pair
+        of a simulated episode was accepted 24 m off.
     support_scale : float
         Agreeing cells (full resolution) at which support reaches 1 - 1/e:
         about four metres of wall at 0.05 m, below which a match is too small
@@ -189,6 +196,7 @@ class ConfidenceParams:
     fit_centre: float = 0.80
     fit_width: float = 0.06
     fit_tolerance: int = 3
+    tolerant_support: float = 2000.0
     support_scale: float = 80.0
     distinct_margin: float = 0.25
     distinct_width: float = 0.05

@@ -78,7 +78,10 @@ def judge(
     other = None if runner_up is None else runner_up[0]
     fit_quality = check.quality
     factors = confidence_factors(check, other, strength=strength, params=params.confidence)
-    if np.prod(factors) < params.confidence.accept:
+    if (
+        np.prod(factors) < params.confidence.accept
+        and check.agreeing >= params.confidence.tolerant_support
+    ):
         # Two independently drawn maps of one building: walls a few cells apart.
         _, tolerant_quality = tolerant_fit(
             first, second, best, tolerance=params.confidence.fit_tolerance, params=params.verify
