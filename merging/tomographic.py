@@ -80,6 +80,8 @@ from numpy.typing import NDArray
 from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
 from merging.api import register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
+from merging.grid import OccupancyGrid, validate_cells
+from merging.metrics import as_matrix
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
 from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
@@ -354,8 +356,8 @@ def _judged(
 
 
 def refine_from(
-    cells1: NDArray[np.int8],
-    cells2: NDArray[np.int8],
+    map1: OccupancyGrid | NDArray[Any],
+    map2: OccupancyGrid | NDArray[Any],
     matrix: NDArray[np.float64],
     *,
     params: TomographicParams = DEFAULT_PARAMS,
@@ -370,13 +372,25 @@ def refine_from(
 
     Parameters
     ----------
-    cells1, cells2 : (rows, cols) int8 ndarray
-        Validated grids (see :func:`merging.grid.validate_cells`).
+    map1, map2 : OccupancyGrid or (rows, cols) array
+        Grids in the ROS coding, of one resolution (cells are matched as
+        they are).
     matrix : (3, 3) float ndarray
-        The starting transform.
+        The starting transform, map 2 cells -> map 1 cells.
     params : TomographicParams
         Settings; ``from_start`` is the refinement run.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For grids not in the ROS coding, a matrix that is not a finite 3x3
+        one, or ``params`` that is not a TomographicParams.
     """
+    cells1 = validate_cells(map1, name="map1")
+    cells2 = validate_cells(map2, name="map2")
+    matrix = as_matrix(matrix)
+    if not isinstance(params, TomographicParams):
+        raise TypeError(f"params must be a TomographicParams, got {type(params).__name__}")
     clock = time.perf_counter()
     (crop1, offset1), (crop2, offset2) = observed_part(cells1), observed_part(cells2)
     first = prepare_map(crop1, params=params.verify)

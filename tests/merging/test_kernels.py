@@ -146,3 +146,12 @@ def test_params_validate_the_schedule() -> None:
         TomographicParams(stages=())
     with pytest.raises(TypeError, match="stages\\[0\\] must be a RefineStage"):
         TomographicParams(stages=("wide",))  # type: ignore[arg-type]
+
+
+def test_refine_from_validates_its_input(building: np.ndarray) -> None:
+    with pytest.raises(ValueError, match="3x3"):
+        refine_from(building, building, np.eye(2))
+    with pytest.raises(TypeError, match="TomographicParams"):
+        refine_from(building, building, np.eye(3), params=object())  # type: ignore[arg-type]
+    grid = merging.OccupancyGrid(building)
+    assert refine_from(grid, grid, rigid_matrix(0.8, -0.5, 0.002)).accepted
