@@ -101,8 +101,17 @@ def ros_merge(
     timings["features"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
+    counts = [len(f.keypoints) for f in features]
+    if min(counts) < 2:
+        # OpenCV's nearest-neighbour search needs two keypoints to compare.
+        return refusal(name, f"{name}: {counts[0]} and {counts[1]} keypoints; too few", timings)
     matcher = cv2.detail_AffineBestOf2NearestMatcher(False, False, MATCH_CONFIDENCE, MIN_MATCHES)
-    pairwise = matcher.apply2(features)
+    try:
+        pairwise = matcher.apply2(features)
+    except cv2.error as error:
+        # The matcher asserts on degenerate feature sets; for a map that means no match.
+        first_line = str(error).strip().splitlines()[-1]
+        return refusal(name, f"{name}: OpenCV's matcher found no match ({first_line})", timings)
     matcher.collectGarbage()
     info = pairwise[1]  # image 0 (map 1) against image 1 (map 2)
     timings["match"] = time.perf_counter() - clock
@@ -111,7 +120,6 @@ def ros_merge(
         to_map2 = np.asarray(info.H, dtype=float).reshape(3, 3)
         found = bool(np.all(np.isfinite(to_map2))) and abs(np.linalg.det(to_map2[:2, :2])) > 1e-9
     if not found:
-        counts = [len(f.keypoints) for f in features]
         return refusal(
             name,
             f"{name}: {counts[0]} and {counts[1]} keypoints, {len(info.matches)} matches; "
