@@ -247,6 +247,7 @@ def plot_scaling(times: dict[str, dict[int, list[float]]], path: Path) -> None:
     """Median time against map side, log-log, one line per method (needs matplotlib)."""
     try:
         import matplotlib
+        import matplotlib.ticker
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -266,8 +267,9 @@ def plot_scaling(times: dict[str, dict[int, list[float]]], path: Path) -> None:
     axis.set_xlabel("map side (cells)")
     axis.set_ylabel("time per pair (ms)")
     axis.axhline(50, color="grey", linestyle=":", linewidth=1)
-    axis.set_xticks(sorted({n for per_size in times.values() for n in per_size}))
-    axis.set_xticklabels([str(n) for n in sorted({n for t in times.values() for n in t})])
+    sizes = sorted({n for per_size in times.values() for n in per_size})
+    axis.set_xticks(sizes, [str(n) for n in sizes], rotation=45)
+    axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     axis.legend()
     axis.set_title("merge time against map size")
     fig.tight_layout()
