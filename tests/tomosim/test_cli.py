@@ -254,8 +254,10 @@ def test_partial_merge_writes_the_linked_maps(
     assert err.count("\n") == 1 and "empty.yaml" in err and "warning" in err
 
 
-def test_help_lists_methods(capsys: pytest.CaptureFixture[str]) -> None:
+def test_help_lists_methods_and_version(capsys: pytest.CaptureFixture[str]) -> None:
     status, out, _ = run(["merge", "--help"], capsys)
     assert status == 0
     assert all(method in out for method in available_methods())
     assert "available_methods()" not in out
+    status, out, _ = run(["--version"], capsys)
+    assert status == 0 and out.startswith("tomosim ") and out.strip() != "tomosim"
