@@ -40,7 +40,7 @@ from tomosim.recording.paths import (
 )
 from tomosim.recording.recorder import crop_to_known
 from tomosim.recording.sinks import open_stream
-from tomosim.team import TeamConfig, TeamMerge, TeamSession
+from tomosim.team import RoundQuality, TeamConfig, TeamSession
 from tomosim.worlds import generate_floorplan
 
 SMALL_FLOOR = (12.0, 9.0)
@@ -95,7 +95,7 @@ def matched(rule: str, origin: str, held: dict[str, set[str]]) -> set[str]:
 @pytest.fixture(scope="module")
 def recorded(
     tmp_path_factory: pytest.TempPathFactory,
-) -> tuple[Path, TeamSession, list[float], list[TeamMerge]]:
+) -> tuple[Path, TeamSession, list[float], list[RoundQuality]]:
     """A short exploration of two robots recorded to a file, with what the run saw."""
     world = generate_floorplan(2, width=SMALL_FLOOR[0], height=SMALL_FLOOR[1])
     session = TeamSession(
@@ -124,13 +124,13 @@ def recorded(
 
 
 def test_recording_passes_rerun_verify(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     verify(recorded[0])
 
 
 def test_recording_holds_one_blueprint(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     reader = RrdReader(recorded[0])
     assert len(reader.recordings()) == 1
@@ -138,7 +138,7 @@ def test_recording_holds_one_blueprint(
 
 
 def test_every_view_is_2d_or_a_chart_and_shows_recorded_entities(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     """Read the layout back from the file: each view's filter selects what the run logged."""
     path, _, _, merges = recorded
@@ -171,7 +171,7 @@ def test_every_view_is_2d_or_a_chart_and_shows_recorded_entities(
 
 
 def test_views_follow_what_the_run_logs(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     views = {view.name: view for view in recorded_views(recorded[0])}
     rotation = views["Rotation error [deg]"]
@@ -203,7 +203,7 @@ def test_a_run_without_merging_has_no_merge_views(tmp_path: Path) -> None:
 
 
 def test_series_read_back_equal_what_was_logged(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     path, _, coverage, merges = recorded
     run = read_recording(path)
@@ -229,7 +229,7 @@ def test_series_read_back_equal_what_was_logged(
 
 
 def test_grids_read_back_equal_what_was_logged(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     path, session, _, merges = recorded
     run = read_recording(path)
@@ -240,15 +240,15 @@ def test_grids_read_back_equal_what_was_logged(
     assert truth.resolution == session.world.truth.resolution
     step, merged = run.grids[MERGED]
     assert step == merges[-1].step
-    expected = crop_to_known(merges[-1].merged)
+    expected = crop_to_known(merges[-1].merge.merged)
     np.testing.assert_array_equal(merged.data, expected.data)
     np.testing.assert_allclose(merged.origin, expected.origin, atol=1e-6)
-    start = session.simulation.start_poses[merges[-1].reference]
+    start = session.simulation.start_poses[merges[-1].merge.reference]
     np.testing.assert_allclose(run.poses[MERGED_FRAME], start, atol=1e-6)
 
 
 def test_maps_are_logged_when_changed_not_every_step(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]],
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
 ) -> None:
     steps = []
     for chunk in RrdReader(recorded[0]).stream().filter(content=f"+ /{map_path(0)}"):
@@ -280,7 +280,7 @@ def test_a_failed_episode_keeps_what_it_recorded(tmp_path: Path) -> None:
 
 
 def test_a_torn_file_is_read_up_to_its_last_whole_message(
-    recorded: tuple[Path, TeamSession, list[float], list[TeamMerge]], tmp_path: Path
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]], tmp_path: Path
 ) -> None:
     """A process killed while writing leaves half a message at the end: read the rest."""
     whole = recorded[0].read_bytes()

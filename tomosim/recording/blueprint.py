@@ -32,7 +32,7 @@ from tomosim.recording.paths import (
     map_frame_path,
     quantity_path,
 )
-from tomosim.team.quality import robot_name
+from tomosim.team.merger import robot_name
 
 BACKGROUND = (205, 205, 205)
 """RGB behind the maps: map_server's grey for unknown cells, which are drawn

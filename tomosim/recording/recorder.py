@@ -72,7 +72,7 @@ from tomosim.recording.paths import (
     trail_path,
 )
 from tomosim.recording.sinks import LiveViewer, RecordingError, open_stream, unwritable
-from tomosim.team.merger import TeamMerge
+from tomosim.team.quality import RoundQuality
 from tomosim.team.session import TeamSession
 from tomosim.team.sharing import known_box
 
@@ -339,7 +339,7 @@ class Recorder:
             log(map_frame_path(k), MIRROR_Y, static=True)
         self.log_step(session, None)
 
-    def log_step(self, session: TeamSession, merge: TeamMerge | None) -> None:
+    def log_step(self, session: TeamSession, merge: RoundQuality | None) -> None:
         """One step: poses, scans, coverage, changed maps and the merge round, if any."""
         self._set_time(session)
         log = self.stream.log
@@ -394,7 +394,7 @@ class Recorder:
             )
             self.stream.log(trail_path(k), trail)
 
-    def log_merge(self, session: TeamSession, merge: TeamMerge) -> None:
+    def log_merge(self, session: TeamSession, merge: RoundQuality) -> None:
         """One merge round's quality figures and merged map, at the current time."""
         log = self.stream.log
         for pair in merge.pairs:
@@ -412,9 +412,9 @@ class Recorder:
                 log(pair_path(pair.name, quantity), rr.Scalars(value))
         log(AGREEMENT, rr.Scalars(merge.agreement))
         log(ACCEPTED_PAIRS, rr.Scalars(float(len(merge.accepted))))
-        start = session.simulation.start_poses[merge.reference]
+        start = session.simulation.start_poses[merge.merge.reference]
         log(MERGED_FRAME, pose_transform(start))
-        merged = crop_to_known(merge.merged)
+        merged = crop_to_known(merge.merge.merged)
         log(MERGED, grid_placement(merged), grid_image(merged, draw_order=DRAW_ORDER["merged"]))
         log(MERGE_LOG, rr.TextLog(merge_line(merge), level="INFO"))
 
@@ -436,7 +436,7 @@ class Recorder:
         self.log_status(f"interrupted at step {self._step}: {why}")
 
 
-def merge_line(merge: TeamMerge) -> str:
+def merge_line(merge: RoundQuality) -> str:
     """One line describing a merge round (for the recording's text log)."""
     parts = []
     for pair in merge.pairs:
