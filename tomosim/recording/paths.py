@@ -93,6 +93,28 @@ ROBOT_COLOURS = (
 """RGB colour of robot ``k`` is ``ROBOT_COLOURS[k % len(ROBOT_COLOURS)]``."""
 
 
+PAIR_COLOURS = (
+    (27, 158, 119),
+    (217, 95, 2),
+    (117, 112, 179),
+    (231, 41, 138),
+    (102, 166, 30),
+    (230, 171, 2),
+    (166, 118, 29),
+    (102, 102, 102),
+)
+"""RGB of a pair's series in the charts, the same in every chart: the pairs in the
+order r0-r1, r0-r2, r1-r2, r0-r3, ... take the colours in turn (any team size)."""
+
+
+def pair_colour(first: int, second: int) -> tuple[int, int, int]:
+    """The RGB colour of the series of the pair of robots ``first < second``."""
+    if not 0 <= first < second:
+        raise ValueError(f"a pair needs robots 0 <= first < second, got ({first}, {second})")
+    index = second * (second - 1) // 2 + first
+    return PAIR_COLOURS[index % len(PAIR_COLOURS)]
+
+
 def robot_colour(robot: int) -> tuple[int, int, int]:
     """The RGB colour robot ``robot`` is drawn in."""
     return ROBOT_COLOURS[robot % len(ROBOT_COLOURS)]

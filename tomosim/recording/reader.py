@@ -19,6 +19,7 @@ viewer opens with, and their entity filters.
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -218,10 +219,27 @@ def _check_header(source: Path) -> None:
         )
 
 
+def rerun_executable() -> str | None:
+    """The ``rerun`` program installed with the rerun-sdk package (or on the PATH)."""
+    try:
+        import rerun_cli
+    except ImportError:
+        return shutil.which("rerun")
+    suffix = ".exe" if sys.platform.startswith("win") else ""
+    bundled = Path(rerun_cli.__file__).parent / f"rerun{suffix}"
+    return str(bundled) if bundled.is_file() else shutil.which("rerun")
+
+
 def _repair(source: Path, folder: Path) -> Path:
     """The whole messages of ``source`` copied to a file in ``folder`` by ``rerun rrd filter``."""
     copy = folder / source.name
-    command = [sys.executable, "-m", "rerun_cli", "rrd", "filter", str(source), "-o", str(copy)]
+    program = rerun_executable()
+    if program is None:
+        raise ValueError(
+            f"{source} is cut short, and reading its intact part needs the rerun program: "
+            "python -m pip install rerun-sdk"
+        )
+    command = [program, "rrd", "filter", str(source), "-o", str(copy)]
     try:
         done = subprocess.run(
             command, capture_output=True, text=True, timeout=REPAIR_TIMEOUT_S, check=False

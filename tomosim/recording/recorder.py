@@ -66,12 +66,14 @@ from tomosim.recording.paths import (
     WORLD,
     map_frame_path,
     map_path,
+    pair_colour,
     pair_path,
     robot_colour,
     robot_path,
     trail_path,
 )
 from tomosim.recording.sinks import LiveViewer, RecordingError, open_stream, unwritable
+from tomosim.team.merger import robot_name
 from tomosim.team.quality import RoundQuality
 from tomosim.team.session import TeamSession
 from tomosim.team.sharing import known_box
@@ -103,7 +105,12 @@ TRAIL_WIDTH = rr.Radius.ui_points(1.0)
 """A robot's path (UI points)."""
 SCAN_RADIUS = rr.Radius.ui_points(1.5)
 """A drawn lidar return (UI points)."""
-HEADING_RADII = 2.0
+BODY_RADIUS = rr.Radius.ui_points(5.0)
+"""A robot's disc, drawn the same size at any zoom (UI points): a robot is some
+0.2 m, a handful of pixels when the whole floor is in view."""
+AGREEMENT_COLOUR = (40, 40, 40)
+"""RGB of the merged map's agreement series, apart from the pairs' colours."""
+HEADING_RADII = 3.0
 """Length of the heading arrow in robot radii."""
 MIRROR_Y = rr.Transform3D(scale=[1.0, -1.0, 1.0])
 """The mirror of the ``world`` and ``maps/rK`` frames (module docstring)."""
@@ -168,6 +175,7 @@ class Recorder:
         "_logged_at",
         "_status",
         "_step",
+        "_styled",
         "_trails",
         "map_interval",
         "path",
@@ -197,6 +205,7 @@ class Recorder:
         self._trails: dict[int, list[tuple[float, float]]] = {}
         self._closed = False
         self._status: str | None = None
+        self._styled: set[str] = set()
         self._step = 0
         self._flushed_at = time.monotonic()
 
@@ -326,7 +335,11 @@ class Recorder:
         for k in range(session.count):
             colour = robot_colour(k)
             body = rr.Points2D(
-                [[0.0, 0.0]], radii=radius, colors=[colour], draw_order=DRAW_ORDER["body"]
+                [[0.0, 0.0]],
+                radii=BODY_RADIUS,
+                colors=[colour],
+                labels=[robot_name(k)],
+                draw_order=DRAW_ORDER["body"],
             )
             log(f"{robot_path(k)}/body", body, static=True)
             heading = rr.Arrows2D(
@@ -398,6 +411,7 @@ class Recorder:
         """One merge round's quality figures and merged map, at the current time."""
         log = self.stream.log
         for pair in merge.pairs:
+            colour = pair_colour(pair.first, pair.second)
             values = {
                 "confidence": pair.confidence,
                 "accepted": float(pair.accepted),
@@ -409,7 +423,16 @@ class Recorder:
             for quantity, value in values.items():
                 if quantity in ERROR_QUANTITIES and not pair.accepted:
                     continue
-                log(pair_path(pair.name, quantity), rr.Scalars(value))
+                path = pair_path(pair.name, quantity)
+                if path not in self._styled:
+                    self._styled.add(path)
+                    style = rr.SeriesLines(colors=[colour], names=[pair.name])
+                    log(path, style, static=True)
+                log(path, rr.Scalars(value))
+        if AGREEMENT not in self._styled:
+            self._styled.add(AGREEMENT)
+            style = rr.SeriesLines(colors=[AGREEMENT_COLOUR], names=["merged-map agreement"])
+            log(AGREEMENT, style, static=True)
         log(AGREEMENT, rr.Scalars(merge.agreement))
         log(ACCEPTED_PAIRS, rr.Scalars(float(len(merge.accepted))))
         start = session.simulation.start_poses[merge.merge.reference]
