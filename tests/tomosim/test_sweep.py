@@ -62,8 +62,16 @@ def test_process_and_ray_give_the_same_rows(tmp_path: Path) -> None:
     pytest.importorskip("ray", reason='Ray is optional: pip install "tomosim[ray]"')
     plan = four_episodes()
     local = run_sweep(plan, tmp_path / "process.csv", executor="process", workers=2)
-    remote = run_sweep(plan, tmp_path / "ray.csv", executor="ray", workers=2)
+    reported: set[str] = set()
+    remote = run_sweep(
+        plan,
+        tmp_path / "ray.csv",
+        executor="ray",
+        workers=2,
+        on_step=lambda key, step, coverage: reported.add(key),
+    )
     assert local.ran == remote.ran == 4
+    assert reported == {e.key for e in plan.episodes()}  # running episodes report on Ray too
     rows = without_timing(ResultsFile(local.results).rows())
     assert rows == without_timing(ResultsFile(remote.results).rows())
     assert {row["method"] for row in rows} == {"tomographic", "none"}
@@ -264,3 +272,14 @@ def test_sweep_help_gives_every_option_a_default(capsys: pytest.CaptureFixture[s
         after = text.split(f"{option} ")[-1]
         assert "default" in after.split(" --")[0], option
     assert all(method in text for method in available_methods())
+
+
+def test_an_unwritable_results_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    dangling = tmp_path / "rows.csv"
+    dangling.symlink_to(tmp_path / "gone" / "rows.csv")
+    assert main(["sweep", "--out", str(dangling), "--steps", "5"]) == 1
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "cannot write", "rows.csv", "--out")
+    assert "Errno" not in err

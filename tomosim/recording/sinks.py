@@ -57,15 +57,16 @@ class RecordingError(OSError):
 def unwritable(path: Path, reason: str) -> RecordingError:
     """The error for a recording ``path`` that cannot be written, with what to do."""
     folder = path.absolute().parent
+    remedy = "record elsewhere with --record PATH"
     try:
-        if folder.is_dir() and shutil.disk_usage(folder).free < LOW_SPACE_BYTES:
-            reason = f"the disk is full ({reason})"
-    except OSError:  # a special file system without usage figures: keep rerun's reason
-        pass
-    return RecordingError(
-        f"cannot write the recording {path}: {reason}; free some space or record "
-        "elsewhere with --record PATH"
-    )
+        usage = shutil.disk_usage(folder) if folder.is_dir() else None
+    except OSError:  # no usage figures here: keep the reason as given
+        usage = None
+    # /proc and the like report a size of 0: only a real disk can be full.
+    full = usage is not None and usage.total > 0 and usage.free < LOW_SPACE_BYTES
+    if full or "No space left" in reason:
+        reason, remedy = f"the disk is full ({reason})", f"free some space or {remedy}"
+    return RecordingError(f"cannot write the recording {path}: {reason}; {remedy}")
 
 
 @dataclass(frozen=True, slots=True)

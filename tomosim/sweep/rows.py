@@ -97,6 +97,10 @@ class SweepLockedError(ValueError):
     """Another sweep is writing the results file."""
 
 
+class ResultsFileError(OSError):
+    """The results file cannot be written; the message names it."""
+
+
 class ResultsFile:
     """The CSV file a sweep appends to.
 
@@ -123,14 +127,14 @@ class ResultsFile:
         ------
         SweepLockedError
             If another process holds it.
-        OSError
+        ResultsFileError
             If the file cannot be opened for writing.
         """
         try:
             handle = self.path.open("a")
         except OSError as exc:
-            raise OSError(
-                exc.errno, f"cannot write {self.path}: {exc.strerror or exc}", str(self.path)
+            raise ResultsFileError(
+                f"cannot write {self.path}: {exc.strerror or exc}; choose another --out"
             ) from exc
         try:
             if fcntl is not None:
