@@ -143,11 +143,12 @@ def test_usage_errors_exit_2_with_one_line(
 
 def test_missing_map_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     missing = tmp_path / "nowhere.yaml"
-    status, _, err = run(
-        ["explore", "--world", str(missing), "--record", str(tmp_path / "r.rrd")], capsys
-    )
+    earlier = tmp_path / "r.rrd"
+    earlier.write_bytes(b"an earlier run's recording")
+    status, _, err = run(["explore", "--world", str(missing), "--record", str(earlier)], capsys)
     assert status == 1
     assert_one_line_error(err, "not found", "nowhere.yaml")
+    assert earlier.read_bytes() == b"an earlier run's recording"  # a run that never started
 
 
 def test_bad_yaml(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -39,7 +39,7 @@ from tomosim.recording.paths import (
     map_path,
 )
 from tomosim.recording.recorder import crop_to_known
-from tomosim.recording.sinks import open_stream
+from tomosim.recording.sinks import Sinks
 from tomosim.team import RoundQuality, TeamConfig, TeamSession
 from tomosim.worlds import generate_floorplan
 
@@ -336,8 +336,15 @@ def test_reading_a_missing_or_foreign_file_fails_clearly(tmp_path: Path) -> None
 def test_an_unwritable_recording_is_one_clear_error(tmp_path: Path) -> None:
     dangling = tmp_path / "run.rrd"
     dangling.symlink_to(tmp_path / "missing" / "run.rrd")
+    session = TeamSession(
+        generate_floorplan(2, width=SMALL_FLOOR[0], height=SMALL_FLOOR[1]), robots=1, rng=0
+    )
+    recorder = Recorder.to_file(dangling)
     with pytest.raises(RecordingError, match=r"cannot write the recording .*run\.rrd"):
-        Recorder.to_file(dangling)
+        recorder.log_start(session, {})
+    recorder.close()
+    with pytest.raises(RecordingError, match=r"folder .* does not exist"):
+        Recorder.to_file(tmp_path / "missing" / "run.rrd")
 
 
 def free_port() -> int:
@@ -349,15 +356,20 @@ def free_port() -> int:
 
 def test_serve_web_hosts_a_viewer_for_a_browser(tmp_path: Path) -> None:
     live = LiveViewer("serve-web", grpc_port=free_port(), web_port=free_port())
-    opened = open_stream(tmp_path / "live.rrd", live)
+    sinks = Sinks(tmp_path / "live.rrd", live)
+    assert not (tmp_path / "live.rrd").exists()  # nothing is touched before the run starts
     try:
-        assert opened.watch is not None
-        assert opened.watch.startswith(f"http://localhost:{live.web_port}/?url=rerun%2Bhttp")
+        sinks.attach()
+        assert sinks.watch == (
+            f"http://localhost:{live.web_port}/?url=rerun%2Bhttp%3A%2F%2Flocalhost%3A"
+            f"{live.grpc_port}%2Fproxy"
+        )
         with urllib.request.urlopen(f"http://127.0.0.1:{live.web_port}/", timeout=30) as page:
             assert page.status == 200
+        assert (tmp_path / "live.rrd").is_file()
     finally:
-        opened.stream.flush()
-        opened.stream.disconnect()
+        sinks.stream.flush()
+        sinks.stream.disconnect()
 
 
 def test_connecting_to_no_viewer_is_refused_before_the_run(tmp_path: Path) -> None:

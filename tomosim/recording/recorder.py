@@ -72,7 +72,7 @@ from tomosim.recording.paths import (
     robot_path,
     trail_path,
 )
-from tomosim.recording.sinks import LiveViewer, RecordingError, open_stream, unwritable
+from tomosim.recording.sinks import LiveViewer, RecordingError, Sinks, unwritable
 from tomosim.team.merger import robot_name
 from tomosim.team.quality import RoundQuality
 from tomosim.team.session import TeamSession
@@ -173,6 +173,7 @@ class Recorder:
         "_flushed_at",
         "_last_maps",
         "_logged_at",
+        "_sinks",
         "_status",
         "_step",
         "_styled",
@@ -206,6 +207,7 @@ class Recorder:
         self._closed = False
         self._status: str | None = None
         self._styled: set[str] = set()
+        self._sinks: Sinks | None = None
         self._step = 0
         self._flushed_at = time.monotonic()
 
@@ -228,10 +230,16 @@ class Recorder:
         live: LiveViewer | None = None,
         map_interval: int = MAP_INTERVAL,
     ) -> Recorder:
-        """A recorder writing ``record`` and showing on ``live`` (:func:`open_stream`)."""
-        opened = open_stream(record, live)
-        recorder = cls(opened.stream, map_interval=map_interval, path=record)
-        recorder.watch = opened.watch
+        """A recorder writing ``record`` and showing on ``live`` (:class:`Sinks`).
+
+        The file is created, or emptied, only when :meth:`log_start` logs the
+        run's first data, so a run that fails before it starts leaves an
+        existing file of that name as it was.
+        """
+        sinks = Sinks(record, live)
+        recorder = cls(sinks.stream, map_interval=map_interval, path=record)
+        recorder.watch = sinks.watch
+        recorder._sinks = sinks
         return recorder
 
     def __enter__(self) -> Recorder:
@@ -289,6 +297,9 @@ class Recorder:
         if self._status is not None and self._status.startswith(STATUS_RUNNING):
             self.log_status(f"stopped at step {self._step} before its end")
         self._closed = True
+        if self._sinks is not None and self._status is None:  # never started: nothing to write
+            self.stream.disconnect()
+            return
         try:
             self._flush(final=True)
         except RecordingError:
@@ -308,7 +319,15 @@ class Recorder:
         self.stream.set_time(SIM_TIME_TIMELINE, duration=session.simulation.time)
 
     def log_start(self, session: TeamSession, settings: Mapping[str, Any]) -> None:
-        """The blueprint, the static part (settings, world, robot bodies, colours) and step 0."""
+        """The blueprint, the static part (settings, world, robot bodies, colours) and step 0.
+
+        Raises
+        ------
+        RecordingError
+            If the file cannot be created or a viewer's port is taken.
+        """
+        if self._sinks is not None:
+            self._sinks.attach()
         world = session.world
         merging = bool(session.config.merge)
         self.stream.send_blueprint(

@@ -12,8 +12,8 @@ and shown live at the same time, the three ways rerun's own examples offer:
   for a browser on any machine that reaches it (the way to watch a run on a
   machine without a display).
 
-:func:`open_stream` builds the ``rerun.RecordingStream`` with these sinks and
-turns rerun's failures into :class:`RecordingError` with one-line messages.
+:class:`Sinks` builds the ``rerun.RecordingStream`` with these sinks and turns
+rerun's failures into :class:`RecordingError` with one-line messages.
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ class LiveViewer:
     url : str
         ``connect``: the viewer's gRPC address.
     grpc_port, web_port : int
-        ``spawn`` and ``serve-web``: the ports to listen on (0: any free port).
+        ``spawn`` and ``serve-web``: the ports to listen on.
     """
 
     mode: str
@@ -93,16 +93,8 @@ class LiveViewer:
             raise ValueError(f"live viewing mode must be one of {LIVE_MODES}, got {self.mode!r}")
         for name in ("grpc_port", "web_port"):
             port = getattr(self, name)
-            if not 0 <= port <= 65535:
-                raise ValueError(f"{name} must be in 0..65535, got {port}")
-
-
-@dataclass(frozen=True, slots=True)
-class Opened:
-    """A stream with its sinks, and where a user watches it (None: nowhere live)."""
-
-    stream: rr.RecordingStream
-    watch: str | None
+            if not 1 <= port <= 65535:
+                raise ValueError(f"{name} must be in 1..65535, got {port}")
 
 
 def has_display() -> bool:
@@ -140,37 +132,84 @@ def open_file_sink(path: Path) -> rr.FileSink:
     return rr.FileSink(path)
 
 
-def open_stream(record: Path | None, live: LiveViewer | None) -> Opened:
-    """A new recording stream writing to ``record`` and showing on ``live``.
+def check_record(path: Path) -> None:
+    """Raise :class:`RecordingError` if ``path`` surely cannot be written (touches nothing)."""
+    folder = path.absolute().parent
+    if path.is_dir():
+        raise RecordingError(f"cannot write the recording {path}: it is a directory")
+    if not folder.is_dir():
+        raise RecordingError(
+            f"cannot write the recording {path}: folder {folder} does not exist; "
+            "record elsewhere with --record PATH"
+        )
+
+
+class Sinks:
+    """A recording stream and where it will go, attached only when the run starts.
+
+    Building one checks everything that can be checked without touching the
+    file (a ``connect`` viewer listens, ``spawn`` has a display, the folder
+    exists) and starts a ``spawn`` viewer; :meth:`attach`, called when the
+    first data is logged, creates (or empties) the file and starts serving.
+    A run that fails before it starts (a world that cannot be read) leaves an
+    existing recording of the same name as it was.
+
+    Parameters
+    ----------
+    record : Path or None
+        The ``.rrd`` file to write.
+    live : LiveViewer or None
+        Where to show the run live.
 
     Raises
     ------
     ValueError
         If there is nowhere to send the recording.
     RecordingError
-        If the file cannot be created, no viewer listens at a ``connect``
-        address, ``spawn`` has no display, or a port is taken.
+        If no viewer listens at a ``connect`` address, ``spawn`` has no
+        display, or the file's folder does not exist.
     """
-    if record is None and live is None:
-        raise ValueError("a recording needs a file, a live viewer, or both")
-    stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
-    stream.set_log_time_enabled(False)
-    sinks: list[Any] = []
-    watch = None
-    if live is not None:
-        watch = _live_sink(stream, live, sinks)
-    if record is not None:
-        sinks.append(open_file_sink(record))
-    try:
-        stream.set_sinks(*sinks)
-    except (RuntimeError, ValueError) as exc:  # rerun's first write to the file failed
-        reason = " ".join(str(exc).split())
+
+    __slots__ = ("_attached", "_live_sinks", "live", "record", "stream", "watch")
+
+    def __init__(self, record: Path | None, live: LiveViewer | None) -> None:
+        if record is None and live is None:
+            raise ValueError("a recording needs a file, a live viewer, or both")
         if record is not None:
-            raise unwritable(record, reason) from exc
-        raise RecordingError(f"cannot show the run live: {reason}") from exc
-    if live is not None and live.mode == "serve-web":
-        watch = _serve_web(live, sinks[0])
-    return Opened(stream, watch)
+            check_record(record)
+        self.record = record
+        self.live = live
+        self.stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
+        self.stream.set_log_time_enabled(False)
+        self._live_sinks: list[Any] = []
+        self._attached = False
+        self.watch: str | None = None
+        if live is not None:
+            self.watch = _live_sink(self.stream, live, self._live_sinks)
+
+    def attach(self) -> None:
+        """Create the file and connect the viewers (once; later calls do nothing).
+
+        Raises
+        ------
+        RecordingError
+            If the file cannot be written or a port is taken.
+        """
+        if self._attached:
+            return
+        self._attached = True
+        sinks = list(self._live_sinks)
+        if self.record is not None:
+            sinks.append(open_file_sink(self.record))
+        try:
+            self.stream.set_sinks(*sinks)
+        except (RuntimeError, ValueError) as exc:  # rerun's first write failed
+            reason = " ".join(str(exc).split())
+            if self.record is not None and "grpc" not in reason.lower():
+                raise unwritable(self.record, reason) from exc
+            raise RecordingError(f"cannot show the run live: {reason}") from exc
+        if self.live is not None and self.live.mode == "serve-web":
+            _serve_web(self.live)
 
 
 def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -> str:
@@ -192,19 +231,15 @@ def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -
         url = f"rerun+http://127.0.0.1:{live.grpc_port}/proxy"
         sinks.append(rr.GrpcSink(url))
         return "streaming to a new viewer window"
-    try:
-        server = rr.GrpcServerSink(port=live.grpc_port)
-    except Exception as exc:  # a taken port raises rerun's own error type
-        raise RecordingError(f"cannot serve on port {live.grpc_port}: {exc}") from exc
-    sinks.append(server)
-    return server.uri
+    sinks.append(rr.GrpcServerSink(port=live.grpc_port))
+    grpc = f"rerun+http://localhost:{live.grpc_port}/proxy"
+    return f"http://localhost:{live.web_port}/?url={quote(grpc, safe='')}"
 
 
-def _serve_web(live: LiveViewer, server: rr.GrpcServerSink) -> str:
-    """Host the web viewer for ``server``; returns the address to open in a browser."""
+def _serve_web(live: LiveViewer) -> None:
+    """Host rerun's web viewer on ``live.web_port``, pointed at the gRPC server."""
+    grpc = f"rerun+http://localhost:{live.grpc_port}/proxy"
     try:
-        rr.serve_web_viewer(web_port=live.web_port, open_browser=False, connect_to=server.uri)
+        rr.serve_web_viewer(web_port=live.web_port, open_browser=False, connect_to=grpc)
     except Exception as exc:  # a taken port raises rerun's own error type
         raise RecordingError(f"cannot serve the web viewer on port {live.web_port}: {exc}") from exc
-    grpc = f"rerun+http://localhost:{urlparse(server.uri).port}/proxy"
-    return f"http://localhost:{live.web_port}/?url={quote(grpc, safe='')}"
