@@ -86,7 +86,12 @@ def timeline(run: RecordedRun) -> list[dict[str, Any]]:
 
 def describe_status(run: RecordedRun) -> str:
     """How the run ended, in words, from ``run/status`` and the file's state."""
-    if run.status.startswith(STATUS_RUNNING) or not run.status:
+    if not run.status:
+        return (
+            f"unknown end: the recording ends at step {run.last_step} and does not say how "
+            "the run ended (an older tomosim wrote it)"
+        )
+    if run.status.startswith(STATUS_RUNNING):
         return (
             f"did not finish: the recording ends at step {run.last_step} without saying how "
             "the run ended (the process was killed or crashed)"
