@@ -245,10 +245,13 @@ class RobustParams:
         lot, 0.90-0.91, and wrong low-overlap windows with much agreeing
         wall, below 0.89.
     strength : float
-        Constraint strength at the widest of the curvature widths 1, 2 and 4
-        cells (scaled by the width squared, to matching cells per cell² at
-        one cell): ragged walls make the sharpest curvature noisy, but a
-        corridor that lets the maps slide stays weak at every width.
+        Constraint strength, the largest over the curvature widths of
+        ``GaussNewtonParams.curvature_sigma`` and ``strength_widths`` (each
+        scaled by its width squared, to matching cells per cell² at one
+        cell): ragged walls make the sharpest curvature noisy, but a corridor
+        that lets the maps slide stays weak at every width.
+    strength_widths : tuple of float
+        The wider curvature widths, in cells.
     widths : tuple of float
         Logistic widths of the factors, in the units of each threshold
         (margin, log10 of agreeing, agreement, quality, open share, open
@@ -272,6 +275,7 @@ class RobustParams:
     open_share: float = 0.2
     open_consistency: float = 0.90
     strength: float = 2.0
+    strength_widths: tuple[float, ...] = (2.0, 4.0)
     widths: tuple[float, float, float, float, float, float, float] = (
         0.03,
         0.02,
@@ -319,6 +323,10 @@ class GaussNewtonParams:
         curvature: one cell spans the sharp field's peak.
     curvature_points : int
         Map 2 cells used for the curvature.
+    whole_field_share : float
+        Share of map 1's area above which a local field is the whole map's
+        (cached) one: its values are the same where map 2 lands, and every
+        candidate and the curvature reuse it.
     """
 
     newton_factor: float = 2.0
@@ -332,6 +340,7 @@ class GaussNewtonParams:
     curvature_sigma: float = 1.0
     curvature_step: float = 1.0
     curvature_points: int = 1500
+    whole_field_share: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)

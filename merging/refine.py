@@ -31,11 +31,6 @@ DEFAULT_GAUSS_NEWTON = GaussNewtonParams()
 """The default step control, field and curvature settings."""
 
 
-WHOLE_FIELD_SHARE = 0.5
-"""Share of map 1's area above which a local field is the whole map's (cached) one:
-its values are the same where map 2 lands, and it is reused."""
-
-
 @dataclass(frozen=True, slots=True)
 class Field:
     """Map 1's walls blurred at one width, over all of map 1 or a box of it.
@@ -65,10 +60,12 @@ class SmoothedMap:
     shape : (rows, cols)
         Map 1's shape.
     downsample_from_sigma : float
-        Fields at least this wide (cells) are computed at half resolution.
+        Fields at least this wide (cells) are computed at a coarser resolution.
+    whole_field_share : float
+        Share of the map above which a local field is the whole map's.
     """
 
-    __slots__ = ("_downsample_from", "_fields", "_shape", "_walls")
+    __slots__ = ("_downsample_from", "_fields", "_shape", "_walls", "_whole_share")
 
     def __init__(
         self,
@@ -76,10 +73,12 @@ class SmoothedMap:
         shape: tuple[int, int],
         *,
         downsample_from_sigma: float = DEFAULT_GAUSS_NEWTON.downsample_from_sigma,
+        whole_field_share: float = DEFAULT_GAUSS_NEWTON.whole_field_share,
     ) -> None:
         self._walls = walls
         self._shape = shape
         self._downsample_from = downsample_from_sigma
+        self._whole_share = whole_field_share
         self._fields: dict[float, Field] = {}
 
     @property
@@ -92,13 +91,13 @@ class SmoothedMap:
 
         ``box = (x_lo, y_lo, x_hi, y_hi)`` in cells (exclusive upper bounds)
         computes the field of that part only, uncached: cheaper when only
-        the overlap matters. A box covering more than
-        :data:`WHOLE_FIELD_SHARE` of the map takes the whole map's field
-        instead, computed once for every candidate and the curvature.
+        the overlap matters. A box covering more than ``whole_field_share``
+        of the map takes the whole map's field instead, computed once for
+        every candidate and the curvature.
         """
         if box is not None:
             x_lo, y_lo, x_hi, y_hi = box
-            if (x_hi - x_lo) * (y_hi - y_lo) > WHOLE_FIELD_SHARE * self._shape[0] * self._shape[1]:
+            if (x_hi - x_lo) * (y_hi - y_lo) > self._whole_share * self._shape[0] * self._shape[1]:
                 box = None
         if box is None and sigma in self._fields:
             return self._fields[sigma]

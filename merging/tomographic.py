@@ -105,10 +105,12 @@ class _Maps:
 
     def __init__(self, first: PreparedMap, second: PreparedMap, params: TomographicParams):
         self.first, self.second, self.params = first, second, params
+        gauss_newton = params.gauss_newton
         self.smoothed = SmoothedMap(
             first.walls,
             first.shape,
-            downsample_from_sigma=params.gauss_newton.downsample_from_sigma,
+            downsample_from_sigma=gauss_newton.downsample_from_sigma,
+            whole_field_share=gauss_newton.whole_field_share,
         )
 
     def verify(self, matrix: NDArray[np.float64]) -> Verification:

@@ -19,12 +19,12 @@ shared open space. The numbers behind it are in ``MergeResult.evidence``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.params import GaussNewtonParams, TomographicParams
+from merging.params import TomographicParams
 from merging.refine import SmoothedMap, constraint_strength
 from merging.robust import open_cells, open_consistency, robust_confidence, tolerant_fit
 from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
@@ -32,9 +32,6 @@ from merging.verify import PreparedMap, Verification, confidence_factors, verify
 
 CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
 """Names of the five factors of :func:`merging.verify.confidence`, in its order."""
-WIDER_CURVATURES = (2.0, 4.0)
-"""Field widths (cells), beyond the sharpest, at which the robust way measures how
-firmly the walls pin the transform: ragged walls blur the sharpest curvature."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,8 +133,8 @@ def _robust(
     )
     smaller = min(open_cells(first), open_cells(second))
     strength = evidence["strength"]
-    for width in WIDER_CURVATURES:
-        wider = GaussNewtonParams(curvature_sigma=width, curvature_step=width)
+    for width in robust.strength_widths:
+        wider = replace(params.gauss_newton, curvature_sigma=width, curvature_step=width)
         wide = constraint_strength(smoothed, second, best, local=True, params=wider)
         strength = max(strength, wide * width**2)
     measures = {
