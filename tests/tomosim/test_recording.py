@@ -48,7 +48,7 @@ SMALL_FLOOR = (12.0, 9.0)
 STEPS = 45
 MERGE_INTERVAL = 15
 MAP_INTERVAL = 10
-TEAM_SEED = 1
+TEAM_SEED = 2
 """A team whose first round is refused and whose next two are accepted."""
 SPATIAL_KINDS = ("2D", "3D")
 """rerun's class identifiers of spatial views."""

@@ -28,6 +28,7 @@ from PIL import Image
 
 from merging import OccupancyGrid, available_methods, load_map, merge_all, save_map
 from merging.api import DEFAULT_METHOD
+from merging.resample import common_resolution
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.demo_maps import DEMO_SEED, demo_pair
 from tomosim.commands.merge_report import render_table, summarise
@@ -91,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
     truth = None
     if args.demo is not None:
         paths, truth = write_demo(args.demo, output)
-    grids = [read_map(path) for path in paths]
+    # Maps of different resolutions are brought to the coarsest (each keeps its frame).
+    grids = common_resolution([read_map(path) for path in paths])
     try:
         result = merge_all(grids, method=args.method, rng=args.seed)
     except ValueError as exc:
