@@ -377,14 +377,16 @@ def _judged(
     runner_up: Candidate | None,
     hypotheses: tuple[Hypothesis, ...],
     timings: dict[str, float],
+    *,
+    mirror_check: bool = True,
 ) -> MergeResult:
     """The result for ``best``: its confidence, the verdict and, when refused, why.
 
-    The verdict searches for the mirror image of the evidence only for a
-    placement it would otherwise accept.
+    With ``mirror_check``, the verdict searches for the mirror image of the
+    evidence, for a placement it would otherwise accept.
     """
     clock = time.perf_counter()
-    mirror = _mirror_search(maps, best, timings)
+    mirror = _mirror_search(maps, best, timings) if mirror_check else None
     verdict = judge(maps.first, maps.second, maps.smoothed, best, runner_up, maps.params, mirror)
     timings["judge"] = time.perf_counter() - clock - timings.get("mirror", 0.0)
     return MergeResult(
@@ -411,11 +413,11 @@ def refine_from(
     For a transform known to be within a few cells and a degree or so of the
     answer, such as the previous round's between two growing maps: the
     refinement of ``params.from_start`` and the confidence of the default
-    method, except distinctiveness (there is no runner-up without a
-    search). Much cheaper than :func:`tomographic_merge`, unless the result
-    would be accepted: then map 2's mirror image is searched for as by the
-    default method (step 6 of the module docstring), so that a placement it
-    refuses as ambiguous is not accepted here.
+    method, except distinctiveness: against the best different placement
+    and against map 2's mirror image (step 6 of the module docstring), as
+    both need a search. The start must come from a search that held it
+    against both (as a tracked transform does: :mod:`merging.tracking`).
+    Much cheaper than :func:`tomographic_merge`.
 
     Parameters
     ----------
@@ -451,7 +453,7 @@ def refine_from(
     hypotheses = (
         Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
     )
-    result = _judged(maps, refined[1], None, hypotheses, timings)
+    result = _judged(maps, refined[1], None, hypotheses, timings, mirror_check=False)
     return replace(result, matrix=best)
 
 
