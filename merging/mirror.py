@@ -29,8 +29,8 @@ show that their agreement is achiral.
 Only a twin of the *same* evidence counts: map 2 mirrored may fit some other
 part of map 1, but that says map 1 holds a mirror copy of map 2 elsewhere,
 not that the evidence for the placement is ambiguous. So the search for the
-twin runs on the parts of both maps that the placement lays on each other
-(:func:`overlap_parts`), the evidence is counted inside the overlap only
+twin places only the part of map 2 that the placement lays on map 1, mirrored
+(:func:`mirrored_part`), the evidence is counted inside the overlap only
 (:func:`region_net`), and the placement must explain a margin more than the
 best mirrored one there (:func:`mirror_share`), as it must explain more than
 the best different placement (:func:`merging.verify.confidence`).
@@ -53,7 +53,7 @@ from numpy.typing import NDArray
 
 from merging.grid import UNKNOWN, free_mask, observed_part, occupied_mask
 from merging.params import VerifyParams
-from merging.transforms import apply_transform, translation_matrix
+from merging.transforms import apply_transform
 from merging.verify import DEFAULT_VERIFY, PreparedMap, dilate, prepare_map
 
 REGION_SAMPLES = 100_000
@@ -68,46 +68,40 @@ Masks = tuple[NDArray[np.bool_], NDArray[np.bool_]]
 
 
 @dataclass(frozen=True, slots=True)
-class OverlapParts:
-    """The parts of both maps that a placement lays on each other.
+class MirroredPart:
+    """The part of map 2 that a placement lays on map 1, seen in a mirror.
 
     Attributes
     ----------
-    first : PreparedMap
-        Map 1 inside the overlap (grown by a margin), unknown elsewhere,
-        cropped to its observed part.
     mirrored : PreparedMap
-        Map 2 likewise (the cells the placement carries into the grown
-        overlap), seen in a mirror (:func:`mirrored_cells`).
-    region : (rows, cols) bool ndarray
-        The overlap itself, in ``first``'s cells: where evidence counts.
+        Map 2's cells that the placement carries within a margin of the
+        overlap (unknown elsewhere), cropped to their observed part, with the
+        columns reversed (:func:`mirrored_cells`).
     overlap : (rows, cols) bool ndarray
-        The same in the whole map 1's cells.
-    matrix : (3, 3) float ndarray
-        The placement between the parts before the mirror: map 2's part
-        (``mirrored`` with its columns reversed back) -> ``first``.
+        The overlap in map 1's cells (:func:`overlap_region`): where evidence
+        counts.
+    unmirror : (3, 3) float ndarray
+        Takes ``mirrored``'s cells back to map 2's (a reflection).
     """
 
-    first: PreparedMap
     mirrored: PreparedMap
-    region: NDArray[np.bool_]
     overlap: NDArray[np.bool_]
-    matrix: NDArray[np.float64]
+    unmirror: NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
 class MirrorCandidates:
-    """Placements of the mirrored part of map 2 on the part of map 1 it overlaps.
+    """Placements on map 1 of the mirrored part of map 2 that a placement overlaps.
 
     Attributes
     ----------
-    parts : OverlapParts
+    part : MirroredPart
         The overlap of the placement held against its mirror image.
     matrices : tuple of (3, 3) float ndarray
-        Each takes ``parts.mirrored``'s cells to ``parts.first``'s, best first.
+        Each takes ``part.mirrored``'s cells to map 1's, best first.
     """
 
-    parts: OverlapParts
+    part: MirroredPart
     matrices: tuple[NDArray[np.float64], ...]
 
 
@@ -128,37 +122,33 @@ def overlap_region(
     return _landing_mask(first.cells >= 0, back, second.cells >= 0)
 
 
-def overlap_parts(
+def mirrored_part(
     first: PreparedMap,
     second: PreparedMap,
     matrix: NDArray[np.float64],
     *,
     margin: int,
     params: VerifyParams = DEFAULT_VERIFY,
-) -> OverlapParts:
-    """The parts of both maps that ``matrix`` (map 2 -> map 1) lays on each other.
+) -> MirroredPart:
+    """The part of map 2 that ``matrix`` (map 2 -> map 1) lays on map 1, seen in a mirror.
 
-    Each map keeps its cells within ``margin`` cells (chessboard) of the
-    overlap, so that the agreeing and conflicting cells inside the overlap
-    are those of the whole map for walls met within ``margin -
-    conflict_clearance`` cells; the rest becomes unknown, and each part is
-    cropped to its observed cells. Searching these parts looks for the
-    mirror image of the evidence, not for the mirrored map anywhere.
+    Map 2 keeps the cells it lays within ``margin`` cells (chessboard) of
+    the overlap, so that the agreeing and conflicting cells inside the
+    overlap are those of the whole map for walls met within ``margin -
+    conflict_clearance`` cells; the rest becomes unknown. Searching for this
+    part on map 1 looks for the mirror image of the evidence, not for the
+    mirrored map anywhere; map 1 is searched whole (its fields are those the
+    first search made).
     """
-    region = overlap_region(first, second, matrix)
-    kept1 = dilate(region, margin)
-    kept2 = _landing_mask(second.cells >= 0, matrix, kept1)
-    cells1, corner1 = observed_part(np.where(kept1, first.cells, UNKNOWN).astype(np.int8))
-    cells2, corner2 = observed_part(np.where(kept2, second.cells, UNKNOWN).astype(np.int8))
-    into1, out_of2 = translation_matrix(-corner1), translation_matrix(corner2)
-    top, left = int(corner1[1]), int(corner1[0])
-    return OverlapParts(
-        first=prepare_map(cells1, params=params),
-        mirrored=prepare_map(mirrored_cells(cells2), params=params),
-        region=region[top : top + cells1.shape[0], left : left + cells1.shape[1]],
-        overlap=region,
-        matrix=into1 @ matrix @ out_of2,
+    overlap = overlap_region(first, second, matrix)
+    kept = _landing_mask(second.cells >= 0, matrix, dilate(overlap, margin))
+    cells, corner = observed_part(np.where(kept, second.cells, UNKNOWN).astype(np.int8))
+    width = cells.shape[1]
+    # Mirrored column x is the part's column width - 1 - x, map 2's column corner_x + that.
+    unmirror = np.array(
+        [[-1.0, 0.0, corner[0] + width - 1.0], [0.0, 1.0, corner[1]], [0.0, 0.0, 1.0]]
     )
+    return MirroredPart(prepare_map(mirrored_cells(cells), params=params), overlap, unmirror)
 
 
 def region_net(
@@ -238,25 +228,23 @@ def mirror_share(
     walls on open space even when right). Returns 0 when the placement has
     no such evidence or there is no mirrored placement.
     """
-    parts = mirror.parts
+    overlap = mirror.part.overlap
 
-    def evidence(
-        one: PreparedMap, other: PreparedMap, move: NDArray[np.float64], region: NDArray[np.bool_]
-    ) -> float:
+    def evidence(other: PreparedMap, move: NDArray[np.float64]) -> float:
         return region_net(
-            one,
+            first,
             other,
             move,
-            region,
+            overlap,
             tolerance=tolerance,
             conflict_weight=conflict_weight,
             params=params,
         )
 
-    base = evidence(first, second, matrix, parts.overlap)
+    base = evidence(second, matrix)
     if base <= 0 or not mirror.matrices:
         return 0.0
-    twin = max(evidence(parts.first, parts.mirrored, m, parts.region) for m in mirror.matrices)
+    twin = max(evidence(mirror.part.mirrored, m) for m in mirror.matrices)
     return max(twin, 0.0) / base
 
 

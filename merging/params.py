@@ -190,12 +190,13 @@ class ConfidenceParams:
         building (:mod:`merging.mirror`). The mirrored placement competes
         like the best different one, so it is held to the same margin as
         ``distinct_margin`` (and width), not to a value of its own. Looked at
-        while choosing this: of 155 right placements the close fit vouched
-        for (window pairs of four maps, seeds 7 and 5 of the section 4.1 and
-        low-overlap protocols), the mirror image explained at most 78 % of
-        the evidence (that one is now refused; the next, 68 %); of the 18
-        half-turned placements of ``aces3``'s round hall (the low-overlap
-        suite of ``scripts/bench_real_maps.py`` and the tests), 83-98 %.
+        while choosing the counting (window pairs of four maps, seeds 7 and 5
+        of the section 4.1 and low-overlap protocols): of 156 right
+        placements a way vouched for, the mirror image explained a median 23 %
+        of the evidence and at most 77 % (a corridor entering ``aces3``'s
+        round hall, now refused; the next, a plain corridor, 72 %); of the 18
+        half-turned placements across that hall (the low-overlap suite of
+        ``scripts/bench_real_maps.py`` and the tests), 83-97 %.
     strength_scale : float
         Constraint strength (matching cells per cell² of motion along the
         weakest direction, :func:`merging.refine.constraint_strength`) at which

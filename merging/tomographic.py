@@ -90,7 +90,7 @@ from merging.api import register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
 from merging.grid import OccupancyGrid, observed_part, validate_cells
 from merging.metrics import as_matrix
-from merging.mirror import MirrorCandidates, overlap_parts
+from merging.mirror import MirrorCandidates, mirrored_part
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
 from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
@@ -112,15 +112,24 @@ class _Maps:
 
     __slots__ = ("first", "params", "second", "smoothed")
 
-    def __init__(self, first: PreparedMap, second: PreparedMap, params: TomographicParams):
+    def __init__(
+        self,
+        first: PreparedMap,
+        second: PreparedMap,
+        params: TomographicParams,
+        smoothed: SmoothedMap | None = None,
+    ):
+        """``smoothed``: map 1's fields, when another search has begun them."""
         self.first, self.second, self.params = first, second, params
         gauss_newton = params.gauss_newton
-        self.smoothed = SmoothedMap(
-            first.walls,
-            first.shape,
-            downsample_from_sigma=gauss_newton.downsample_from_sigma,
-            whole_field_share=gauss_newton.whole_field_share,
-        )
+        if smoothed is None:
+            smoothed = SmoothedMap(
+                first.walls,
+                first.shape,
+                downsample_from_sigma=gauss_newton.downsample_from_sigma,
+                whole_field_share=gauss_newton.whole_field_share,
+            )
+        self.smoothed = smoothed
 
     def verify(self, matrix: NDArray[np.float64]) -> Verification:
         return verify(self.first, self.second, matrix, params=self.params.verify)
@@ -345,8 +354,8 @@ def _mirror_search(
     """A search for the mirror image of the evidence for ``best`` (:mod:`merging.mirror`).
 
     Run when called: steps 1-4 for the part of map 2 that ``best`` lays on
-    map 1, seen in a mirror, on the part of map 1 it covers. Its seconds go
-    to ``timings["mirror"]``.
+    map 1, seen in a mirror, on map 1 (whose fields the first search began).
+    Its seconds go to ``timings["mirror"]``.
     """
 
     def search() -> MirrorCandidates:
@@ -358,13 +367,13 @@ def _mirror_search(
             params.verify.near_radius, params.confidence.fit_tolerance, params.robust.tolerance
         )
         margin = params.verify.conflict_clearance + widest
-        parts = overlap_parts(maps.first, maps.second, best, margin=margin, params=params.verify)
+        part = mirrored_part(maps.first, maps.second, best, margin=margin, params=params.verify)
         factor = coarse_factor(
-            parts.first.shape, parts.mirrored.shape, coarse_cells=params.translation.coarse_cells
+            maps.first.shape, part.mirrored.shape, coarse_cells=params.translation.coarse_cells
         )
         lighter = replace(params, stages=params.mirror_stages)
-        pool = _search(_Maps(parts.first, parts.mirrored, lighter), factor, {})
-        found = MirrorCandidates(parts, tuple(m for _, m in pool))
+        pool = _search(_Maps(maps.first, part.mirrored, lighter, maps.smoothed), factor, {})
+        found = MirrorCandidates(part, tuple(m for _, m in pool))
         timings["mirror"] = time.perf_counter() - clock
         return found
 

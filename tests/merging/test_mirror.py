@@ -11,8 +11,7 @@ from merging.metrics import transform_error
 from merging.mirror import (
     MirrorCandidates,
     mirror_share,
-    mirrored_cells,
-    overlap_parts,
+    mirrored_part,
     overlap_region,
     region_net,
 )
@@ -98,36 +97,33 @@ def test_mirror_share_measures_how_alike_the_evidence_is_in_a_mirror() -> None:
     chiral = synthetic_building(5)
     for grid, low, high in ((symmetric, 0.95, 1.0001), (chiral, 0.0, 0.5)):
         prepared = prepare_map(grid)
-        parts = overlap_parts(prepared, prepared, np.eye(3), margin=5)
-        assert np.array_equal(parts.mirrored.cells, observed_part(grid)[0][:, ::-1])
-        rows, cols = parts.first.shape
+        part = mirrored_part(prepared, prepared, np.eye(3), margin=5)
+        crop, (left, top) = observed_part(grid)
+        assert np.array_equal(part.mirrored.cells, crop[:, ::-1])
+        rows, cols = crop.shape
         # A window symmetric across its horizontal axis, seen in a mirror, is itself
         # turned by half a turn: that rigid placement lays the mirrored part on it.
-        half_turn = rigid_matrix(cols - 1.0, rows - 1.0, np.pi)
-        candidates = MirrorCandidates(parts, (half_turn,))
+        half_turn = rigid_matrix(left + cols - 1.0, top + rows - 1.0, np.pi)
+        candidates = MirrorCandidates(part, (half_turn,))
         share = mirror_share(prepared, prepared, np.eye(3), candidates)
         assert low <= share <= high, share
-        nothing = MirrorCandidates(parts, ())
+        nothing = MirrorCandidates(part, ())
         assert mirror_share(prepared, prepared, np.eye(3), nothing) == 0.0
 
 
-def test_overlap_parts_keep_what_the_placement_lays_on_each_other() -> None:
+def test_mirrored_part_keeps_what_the_placement_lays_on_map_1() -> None:
     grid = synthetic_building(6)
     prepared = prepare_map(grid)
     shift = rigid_matrix(100.0, 0.0, 0.0)  # map 2's column x lies on map 1's x + 100
-    parts = overlap_parts(prepared, prepared, shift, margin=5)
-    overlap = overlap_region(prepared, prepared, shift)
-    assert np.count_nonzero(parts.region) == np.count_nonzero(overlap)
-    # Map 1 keeps its right part and map 2 its left, each with a 5-cell margin.
+    part = mirrored_part(prepared, prepared, shift, margin=5)
+    assert np.array_equal(part.overlap, overlap_region(prepared, prepared, shift))
+    # Map 2 keeps its left part, up to 5 columns beyond what lands on map 1.
     known_cols = np.flatnonzero((grid >= 0).any(axis=0))
-    assert parts.first.shape[1] == known_cols[-1] - (known_cols[0] + 100) + 1 + 5
-    assert parts.mirrored.shape[1] == parts.first.shape[1]
-    # The placement between the parts lays the kept walls on each other as the whole
-    # maps do: the evidence inside the overlap is the same.
-    second_part = prepare_map(mirrored_cells(parts.mirrored.cells))
-    assert region_net(parts.first, second_part, parts.matrix, parts.region) == pytest.approx(
-        region_net(prepared, prepared, shift, overlap), rel=0.02
-    )
+    assert part.mirrored.shape[1] == known_cols[-1] - 100 + 5 - known_cols[0] + 1
+    # Unmirrored and placed, the part shows the evidence inside the overlap that the
+    # whole map 2 does.
+    kept = region_net(prepared, part.mirrored, shift @ part.unmirror, part.overlap)
+    assert kept == pytest.approx(region_net(prepared, prepared, shift, part.overlap), rel=0.02)
 
 
 def test_region_net_counts_only_inside_the_region() -> None:
