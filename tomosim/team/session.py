@@ -137,11 +137,12 @@ class TeamSession:
             world,
             self.simulation.start_poses,
             resolution=self.config.simulation.mapping.resolution,
-            reach=self.config.simulation.lidar.max_range,
         )
         self.last_merge: TeamMerge | None = None
         self._grids: list[OccupancyGrid] | None = None
-        self.rewards = self.coverage.update(self.grids(), self._positions())
+        self.rewards = self.coverage.update(self.grids())
+        for grid_map in self.simulation.maps:  # from now on, coverage follows what is new
+            grid_map.start_journal()
 
     @property
     def count(self) -> int:
@@ -168,21 +169,17 @@ class TeamSession:
         """Advance one step (module docstring); returns the merge round run, if any."""
         self.simulation.step(commands)
         self._grids = None
-        grids = self.grids()
-        self.rewards = self.coverage.update(grids, self._positions())
+        self.rewards = self.coverage.reveal([m.take_journal() for m in self.simulation.maps])
         merge = None
         if self.merger is not None and self.merger.due(self.steps):
             merge = self.merger.merge(
-                self.steps, grids, starts=self.simulation.start_poses, truth=self.world.truth
+                self.steps, self.grids(), starts=self.simulation.start_poses, truth=self.world.truth
             )
             self.last_merge = merge
             self.shared.link(merge)
-        self.shared.refresh(self.steps, grids)
+        if self.shared.due(self.steps):
+            self.shared.refresh(self.steps, self.grids())
         return merge
-
-    def _positions(self) -> NDArray[np.float64]:
-        """``(N, 2)`` estimated positions, each in its robot's map frame."""
-        return self.simulation.odometry_poses[:, :2]
 
     def linked(self, robot: int) -> bool:
         """Whether robot ``robot``'s best map includes teammates' maps."""
@@ -195,4 +192,7 @@ class TeamSession:
     def best_crop(self, robot: int, *, size: int, pool: int) -> NDArray[np.int8]:
         """A window of the best map around the robot's pose estimate (:meth:`SharedMaps.crop`)."""
         pose = self.simulation.odometry[robot].pose
-        return self.shared.crop(robot, self.grids(), pose[:2], size=size, pool=pool)
+        own = self.simulation.maps[robot]
+        return self.shared.crop_cells(
+            robot, own.cells, own.anchor, own.config.resolution, pose[:2], size=size, pool=pool
+        )
