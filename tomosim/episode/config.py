@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from merging import available_methods
+from merging import check_method
 from merging.api import DEFAULT_METHOD
 from tomosim.simulation import SimulationConfig
 from tomosim.worlds import World, generate_floorplan, world_from_map
@@ -108,9 +108,7 @@ class EpisodeConfig:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
         if not (0.0 < self.coverage_target <= 1.0):
             raise ValueError(f"coverage_target must be in (0, 1], got {self.coverage_target}")
-        if self.method not in available_methods():
-            choices = ", ".join(available_methods())
-            raise ValueError(f"unknown merging method {self.method!r}; choose one of: {choices}")
+        check_method(self.method)
 
     def settings(self, world: World) -> dict[str, Any]:
         """Plain values describing the episode (recorded with it and printed in reports)."""
