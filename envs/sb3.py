@@ -86,7 +86,7 @@ class SB3VectorEnv(VecEnv):
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
         """The attribute from this adapter for every entry (the environments live behind
         SuperSuit, which does not expose theirs)."""
-        return [getattr(self, attr_name)] * len(self._get_indices(indices))
+        return [getattr(self, attr_name)] * len(list(self._get_indices(indices)))
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         """Not supported: the environments live behind SuperSuit."""
@@ -100,4 +100,4 @@ class SB3VectorEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         """No entry is wrapped in a Gymnasium wrapper (they are robots, not envs)."""
-        return [False] * len(self._get_indices(indices))
+        return [False] * len(list(self._get_indices(indices)))
