@@ -74,7 +74,8 @@ Infos (per agent, new objects every step)
 ``step``; ``team_coverage`` and ``coverage`` (this robot's own) as fractions of
 the free space; ``teammates``: the agents whose maps this robot sees;
 ``merged_now``: a merge round ran at this step; ``merge``: the latest merge
-round (empty before the first) with ``step``, ``method``, ``agreement`` (the
+round (empty before the first; one dictionary shared by the agents of a step)
+with ``step``, ``method``, ``agreement`` (the
 merged map's acceptance index against the ground truth, placed by its
 reference robot's true start pose), ``accepted`` (number of accepted pair
 estimates), ``merged_robots`` (agent ids), and ``pairs``: per pair of agents
@@ -82,7 +83,8 @@ estimates), ``merged_robots`` (agent ids), and ``pairs``: per pair of agents
 robot 0's (``estimate``,
 ``truth``: x, y metres, yaw radians), ``rotation_error_deg``,
 ``translation_error_m`` (``inf`` without an estimate), ``matching_index``
-(eq. 31 of the paper), ``confidence``, ``accepted``, ``confirmed``, ``used``,
+(eq. 31 of the paper; None for estimates not accepted), ``confidence``,
+``accepted``, ``confirmed``, ``used``,
 ``dropped`` (confirmed but contradicting the other links) and the merger's
 ``reason``. Reports and recordings of tomosim call the same robots ``r0``,
 ``r1``, ... (:func:`tomosim.team.robot_name`).
@@ -126,6 +128,7 @@ Version history
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -261,6 +264,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self.np_random: np.random.Generator | None = None
         self.session: TeamSession | None = None
         self.last_episode: dict[str, Any] | None = None
+        self._merge_source: Any = None
+        self._merge_info: dict[str, Any] = {}
         self._returns = np.zeros(len(self.possible_agents))
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
@@ -376,6 +381,13 @@ class MultiRobotExplorationEnv(ParallelEnv):
         session = self.session
         assert session is not None  # reset() made it
         scored = session.last_quality
+        if scored is not self._merge_source:  # the round's dictionary, built once per round
+            self._merge_source = scored
+            self._merge_info = {} if scored is None else scored.as_dict(name=agent_name)
+            for pair in self._merge_info.get("pairs", {}).values():  # nan is not equal to itself
+                if not math.isfinite(pair["matching_index"]):
+                    pair["matching_index"] = None
+        merge_info = _copy_merge_info(self._merge_info)
         infos = {}
         for k, agent in enumerate(self.possible_agents):
             if agent not in self.agents:
@@ -386,7 +398,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 "coverage": session.coverage.robot_fraction(k),
                 "teammates": [agent_name(t) for t in session.shared.teammates(k)],
                 "merged_now": merged_now,
-                "merge": {} if scored is None else scored.as_dict(name=agent_name),
+                "merge": merge_info,
             }
         return infos
 
@@ -399,6 +411,17 @@ class MultiRobotExplorationEnv(ParallelEnv):
     def close(self) -> None:
         """Release the episode."""
         self.session = None
+
+
+def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:
+    """A copy of a round's info dictionary down to its mutable parts (tuples are shared)."""
+    if not info:
+        return {}
+    return {
+        **info,
+        "merged_robots": list(info["merged_robots"]),
+        "pairs": {name: dict(pair) for name, pair in info["pairs"].items()},
+    }
 
 
 def parallel_env(**kwargs: Any) -> MultiRobotExplorationEnv:

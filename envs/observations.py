@@ -125,13 +125,15 @@ def observe(
 ) -> dict[str, NDArray[np.float32] | NDArray[np.int8]]:
     """Robot ``robot``'s observation now (new arrays every call)."""
     scan = session.simulation.scans[robot]
-    ranges = np.where(np.isfinite(scan.ranges), scan.ranges, scan.max_range)
-    pose = session.simulation.odometry[robot].pose
-    limit = np.array([bound, bound, math.pi])
+    ranges = scan.ranges.astype(np.float32)  # returns already lie in [0, max_range]
+    ranges[~np.isfinite(ranges)] = scan.max_range
+    x, y, theta = (float(v) for v in session.simulation.odometry[robot].pose)
     return {
-        "scan": np.clip(ranges, 0.0, scan.max_range).astype(np.float32),
+        "scan": ranges,
         "map": session.best_crop(robot, size=size, pool=pool),
-        "pose": np.clip(pose, -limit, limit).astype(np.float32),
+        "pose": np.array(
+            [min(max(x, -bound), bound), min(max(y, -bound), bound), theta], dtype=np.float32
+        ),
     }
 
 

@@ -18,7 +18,13 @@ Three tables:
    robot-steps per second;
 3. the same through Gymnasium's ``AsyncVectorEnv`` of the centralised view.
 
-The tables give the median and the spread (min..max) over the repeats.
+The tables give the median and the spread (min..max) over the repeats, of
+rates by the wall clock and, for one environment, by the process's CPU time
+(``cpu`` columns): on a machine loaded by other work the CPU-time rate is the
+steadier measure of this process's own cost. The CPU time excludes the
+worker process in which global merge searches run (``TeamConfig.merge_worker``),
+which has a core of its own on an idle machine. To compare with another
+checkout, run this script with ``PYTHONPATH=/path/to/that/checkout``.
 
 Usage::
 
@@ -52,30 +58,36 @@ def random_actions(env: Any, generator: np.random.Generator) -> dict[str, Any]:
     return {agent: generator.uniform(-1.0, 1.0, 2).astype(np.float32) for agent in env.agents}
 
 
-def run_steps(env: Any, steps: int, generator: np.random.Generator, seed: int) -> float:
+def run_steps(
+    env: Any, steps: int, generator: np.random.Generator, seed: int
+) -> tuple[float, float]:
     """Step ``env`` ``steps`` times under random actions, resetting ended episodes;
-    returns the seconds taken."""
-    start = time.perf_counter()
+    returns the wall-clock and CPU seconds taken."""
+    start, cpu = time.perf_counter(), time.process_time()
     for _ in range(steps):
         if not env.agents:
             seed += 1
             env.reset(seed=seed)
         env.step(random_actions(env, generator))
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu
 
 
-def bench_single(robots: int, steps: int, repeats: int, **kwargs: Any) -> list[float]:
-    """Robot-steps per second of ``repeats`` fresh runs of one environment."""
-    rates = []
+def bench_single(
+    robots: int, steps: int, repeats: int, **kwargs: Any
+) -> tuple[list[float], list[float]]:
+    """Robot-steps per second of ``repeats`` fresh runs of one environment, by the wall
+    clock and by CPU time."""
+    wall, cpu = [], []
     for repeat in range(repeats):
         env = exploration.parallel_env(robots=robots, **kwargs)
         env.reset(seed=repeat)
         generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
         run_steps(env, WARMUP_STEPS, generator, repeat)
-        seconds = run_steps(env, steps, generator, repeat)
-        rates.append(robots * steps / seconds)
+        seconds, cpu_seconds = run_steps(env, steps, generator, repeat)
+        wall.append(robots * steps / seconds)
+        cpu.append(robots * steps / max(cpu_seconds, 1e-9))
         env.close()
-    return rates
+    return wall, cpu
 
 
 def advance_vector(venv: Any, steps: int, actions: Callable[[], Any]) -> float:
@@ -119,14 +131,20 @@ def bench_gymnasium(envs: int, robots: int, steps: int, repeats: int) -> list[fl
     return rates
 
 
-def row(label: str, rates: list[float]) -> str:
-    """One table row: label, median, min, max."""
-    return f"{label:<24} {statistics.median(rates):>10.0f} {min(rates):>8.0f} {max(rates):>8.0f}"
+def row(label: str, rates: list[float], cpu: list[float] | None = None) -> str:
+    """One table row: label, median, min, max (and the same by CPU time)."""
+    text = f"{label:<28} {statistics.median(rates):>8.0f} {min(rates):>8.0f} {max(rates):>8.0f}"
+    if cpu is not None:
+        text += f" {statistics.median(cpu):>10.0f} {min(cpu):>8.0f} {max(cpu):>8.0f}"
+    return text
 
 
-def header(title: str) -> str:
+def header(title: str, cpu: bool = False) -> str:
     """A table's title and column names."""
-    return f"\n{title}\n{'configuration':<24} {'median':>10} {'min':>8} {'max':>8}"
+    names = f"{'configuration':<28} {'median':>8} {'min':>8} {'max':>8}"
+    if cpu:
+        names += f" {'cpu median':>10} {'min':>8} {'max':>8}"
+    return f"\n{title}\n{names}"
 
 
 def profile(steps: int, top: int) -> None:
@@ -162,12 +180,12 @@ def main() -> None:
         profile(args.profile, args.top)
         return
     print(f"{args.steps} timed steps x {args.repeats} repeats, random actions, robot-steps/s")
-    print(header("one environment, parallel_env() defaults"))
+    print(header("one environment, parallel_env() defaults", cpu=True))
     for robots in args.robots:
-        print(row(f"{robots} robots", bench_single(robots, args.steps, args.repeats)), flush=True)
+        print(row(f"{robots} robots", *bench_single(robots, args.steps, args.repeats)), flush=True)
         if args.no_merge:
             rates = bench_single(robots, args.steps, args.repeats, merge=False)
-            print(row(f"{robots} robots, no merging", rates), flush=True)
+            print(row(f"{robots} robots, no merging", *rates), flush=True)
     if args.vector:
         print(header("K environments in K processes, SuperSuit vector env (3 robots each)"))
         for count in args.vector:

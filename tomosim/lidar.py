@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tomosim.kernels.raycast import cast_scan
+from tomosim.kernels.raycast import add_noise, cast_scan
 from tomosim.worlds.world import as_segments
 
 FULL_CIRCLE_TOLERANCE = 1e-9
@@ -154,8 +154,10 @@ class Lidar:
         """
         x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
         cfg = self.config
-        centres = np.asarray(others, dtype=float).reshape(-1, 2)
-        radii = np.broadcast_to(np.asarray(other_radii, dtype=float), (len(centres),))
+        centres = np.ascontiguousarray(others, dtype=np.float64).reshape(-1, 2)
+        radii = np.asarray(other_radii, dtype=np.float64)
+        if radii.shape != (len(centres),):
+            radii = np.ascontiguousarray(np.broadcast_to(radii, (len(centres),)))
         return cast_scan(
             x,
             y,
@@ -163,8 +165,8 @@ class Lidar:
             cfg.increment,
             cfg.beams,
             self._flat_walls,
-            np.ascontiguousarray(centres),
-            np.ascontiguousarray(radii),
+            centres,
+            radii,
             cfg.max_range,
         )
 
@@ -184,9 +186,9 @@ class Lidar:
         """
         cfg = self.config
         ranges = self.true_ranges(pose, others=others, other_radii=other_radii)
-        noise = rng.normal(0.0, 1.0, cfg.beams) * cfg.range_noise_std
-        dropped = rng.random(cfg.beams) < cfg.dropout_probability
-        hit = np.isfinite(ranges)
-        ranges[hit] = np.clip(ranges[hit] + noise[hit], 0.0, cfg.max_range)
-        ranges[dropped] = np.nan
+        normals = rng.normal(0.0, 1.0, cfg.beams)
+        uniforms = rng.random(cfg.beams)
+        add_noise(
+            ranges, normals, uniforms, cfg.range_noise_std, cfg.dropout_probability, cfg.max_range
+        )
         return Scan(self._angles, ranges, cfg.max_range)

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
-from tomosim.kernels.logodds import code_thresholds, integrate_scan
+from tomosim.kernels.logodds import beam_ends, code_thresholds, integrate_scan
 from tomosim.lidar import Scan
 
 HIT_DEPTH_CELLS = 0.5
@@ -274,44 +274,40 @@ class LogOddsMap:
         too small, in whole cells, and keeps every existing cell's place.
         """
         res = self.config.resolution
-        pad = self.config.growth_padding
         rows, cols = self.shape
-        cell_low = np.floor((np.asarray(low, dtype=float) - self.origin) / res).astype(int)
-        cell_high = np.floor((np.asarray(high, dtype=float) - self.origin) / res).astype(int)
-        extra = math.ceil(pad / res)
-        grow_before = np.where(cell_low < 0, -cell_low + extra, 0)
-        limit = np.array([cols - 1, rows - 1])
-        grow_after = np.where(cell_high > limit, cell_high - limit + extra, 0)
-        if not (np.any(grow_before) or np.any(grow_after)):
+        (lx, ly), (hx, hy) = (tuple(float(v) for v in np.ravel(p)) for p in (low, high))
+        ox, oy = self.origin
+        cell_low = (math.floor((lx - ox) / res), math.floor((ly - oy) / res))
+        cell_high = (math.floor((hx - ox) / res), math.floor((hy - oy) / res))
+        if min(cell_low) >= 0 and cell_high[0] <= cols - 1 and cell_high[1] <= rows - 1:
             return
-        (left, bottom), (right, top) = grow_before.tolist(), grow_after.tolist()
+        extra = math.ceil(self.config.growth_padding / res)
+        left, bottom = (-c + extra if c < 0 else 0 for c in cell_low)
+        right = cell_high[0] - (cols - 1) + extra if cell_high[0] > cols - 1 else 0
+        top = cell_high[1] - (rows - 1) + extra if cell_high[1] > rows - 1 else 0
         widths = ((bottom, top), (left, right))
         self.logodds = np.pad(self.logodds, widths)
         self.observed = np.pad(self.observed, widths)
         self._cells = np.pad(self._cells, widths, constant_values=UNKNOWN)
         self._stamps = np.pad(self._stamps, widths)
-        self.origin = (self.origin[0] - left * res, self.origin[1] - bottom * res)
+        self.origin = (ox - left * res, oy - bottom * res)
 
     def update(self, pose: ArrayLike, scan: Scan) -> None:
         """Integrate ``scan`` taken at ``pose = (x, y, theta)`` (map frame, metres, radians)."""
         x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
-        if not all(math.isfinite(v) for v in (x, y, theta)):
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             raise ValueError(f"pose must be finite, got {(x, y, theta)}")
-        ranges = scan.ranges
-        hit = np.isfinite(ranges)
-        use = hit | (np.isinf(ranges) if self.config.carve_no_return else False)
-        if not np.any(use):
-            return
-        length = np.where(hit, ranges, scan.max_range)[use]
-        bearing = theta + scan.angles[use]
-        ends = np.column_stack([x + length * np.cos(bearing), y + length * np.sin(bearing)])
-        # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
-        room = self.config.resolution
-        self.ensure_contains(
-            np.minimum(ends.min(axis=0), (x, y)) - room, np.maximum(ends.max(axis=0), (x, y)) + room
-        )
-        origin = self.to_cells([[x, y]])[0]
         cfg = self.config
+        ends, hit, box = beam_ends(
+            x, y, theta, scan.angles, scan.ranges, scan.max_range, cfg.carve_no_return
+        )
+        if len(ends) == 0:
+            return
+        # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
+        room = cfg.resolution
+        self.ensure_contains((box[0] - room, box[1] - room), (box[2] + room, box[3] + room))
+        ox, oy = self.origin
+        cells = (ends - (ox, oy)) / cfg.resolution - 0.5
         self._scans += 1
         fresh = integrate_scan(
             self.logodds,
@@ -319,10 +315,10 @@ class LogOddsMap:
             self._cells,
             self._stamps,
             self._scans,
-            float(origin[0]),
-            float(origin[1]),
-            self.to_cells(ends),
-            hit[use],
+            (x - ox) / cfg.resolution - 0.5,
+            (y - oy) / cfg.resolution - 0.5,
+            cells,
+            hit,
             cfg.log_odds_hit,
             cfg.log_odds_miss,
             cfg.log_odds_min,

@@ -166,3 +166,62 @@ def integrate_scan(
             new += 1
         coded[cell] = ros_code(flat[cell], thresholds)
     return fresh[:new]
+
+
+@kernel
+def beam_ends(
+    x: float,
+    y: float,
+    theta: float,
+    angles: NDArray[np.float64],
+    ranges: NDArray[np.float64],
+    max_range: float,
+    carve_no_return: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """End points of the beams a scan integrates (step 2 of :mod:`tomosim.mapping`).
+
+    Parameters
+    ----------
+    x, y, theta : float
+        The pose the scan was taken at (map frame, metres, radians).
+    angles, ranges : (B,) float ndarray
+        The scan (:class:`tomosim.lidar.Scan`): ``inf`` no return, ``nan`` dropout.
+    max_range : float
+        Where a beam without return ends, metres.
+    carve_no_return : bool
+        Whether beams without return are integrated at all.
+
+    Returns
+    -------
+    ends : (M, 2) float ndarray
+        End points in metres of the beams used, in beam order.
+    hit : (M,) bool ndarray
+        Whether each used beam returned (its end is an obstacle).
+    box : (4,) float ndarray
+        ``(xmin, ymin, xmax, ymax)`` of the end points and the pose.
+    """
+    count = ranges.shape[0]
+    ends = np.empty((count, 2))
+    hit = np.empty(count, dtype=np.bool_)
+    box = np.array([x, y, x, y])
+    used = 0
+    for k in range(count):
+        value = ranges[k]
+        if math.isnan(value):
+            continue
+        returned = not math.isinf(value)
+        if not returned and not carve_no_return:
+            continue
+        length = value if returned else max_range
+        bearing = theta + angles[k]
+        ex = x + length * math.cos(bearing)
+        ey = y + length * math.sin(bearing)
+        ends[used, 0] = ex
+        ends[used, 1] = ey
+        hit[used] = returned
+        box[0] = min(box[0], ex)
+        box[1] = min(box[1], ey)
+        box[2] = max(box[2], ex)
+        box[3] = max(box[3], ey)
+        used += 1
+    return ends[:used], hit[:used], box

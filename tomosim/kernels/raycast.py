@@ -112,3 +112,27 @@ def cast_scan(
         if ranges[k] > max_range:
             ranges[k] = np.inf
     return ranges
+
+
+@kernel
+def add_noise(
+    ranges: NDArray[np.float64],
+    normals: NDArray[np.float64],
+    uniforms: NDArray[np.float64],
+    noise_std: float,
+    dropout_probability: float,
+    max_range: float,
+) -> None:
+    """Turn noise-free ranges into a scan in place (:meth:`tomosim.lidar.Lidar.scan`).
+
+    A return (finite range) gets ``noise_std * normals[k]`` added and is
+    clipped to ``[0, max_range]``; a beam whose ``uniforms[k]`` falls below
+    ``dropout_probability`` reports ``nan`` whatever it saw.
+    """
+    for k in range(ranges.shape[0]):
+        value = ranges[k]
+        if math.isfinite(value):
+            value = min(max(value + normals[k] * noise_std, 0.0), max_range)
+        if uniforms[k] < dropout_probability:
+            value = np.nan
+        ranges[k] = value

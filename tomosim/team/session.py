@@ -31,6 +31,7 @@ from tomosim.team.coverage import TeamCoverage
 from tomosim.team.merger import TeamMerge, TeamMerger
 from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
+from tomosim.team.tracking import TrackingEstimator
 from tomosim.worlds.world import RngLike, World, as_generator
 
 
@@ -51,6 +52,14 @@ class TeamConfig:
         before the pair links maps (:class:`~tomosim.team.merger.TeamMerger`).
     share_interval : int
         Steps between updates of a linked robot's view of its teammates' maps.
+    tracking : bool
+        With the default (tomographic) method: track linked pairs' transforms
+        between rounds and search globally only when needed
+        (:class:`~tomosim.team.tracking.TrackingEstimator`); other methods
+        always search every pair.
+    merge_worker : bool
+        Run the tracker's global searches in a worker process (the results,
+        collected at a fixed later round, are the same either way).
     simulation : SimulationConfig
         Robots, lidar, odometry and mapping.
     """
@@ -60,6 +69,8 @@ class TeamConfig:
     merge_interval: int = 50
     confirmations: int = 2
     share_interval: int = 10
+    tracking: bool = True
+    merge_worker: bool = True
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
 
     def __post_init__(self) -> None:
@@ -126,12 +137,18 @@ class TeamSession:
             world, robots=robots, config=self.config.simulation, rng=sim_rng
         )
         count = self.simulation.count
+        tracker = None
+        if self.config.tracking and self.config.method == DEFAULT_METHOD:
+            tracker = TrackingEstimator(
+                method=self.config.method, worker=self.config.merge_worker, rng=merge_rng
+            )
         self.merger = (
             TeamMerger(
                 method=self.config.method,
                 interval=self.config.merge_interval,
                 confirmations=self.config.confirmations,
                 rng=merge_rng,
+                estimator=tracker,
             )
             if self.config.merge
             else None
