@@ -305,8 +305,17 @@ class LogOddsMap:
             return
         # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
         room = cfg.resolution
-        self.ensure_contains((box[0] - room, box[1] - room), (box[2] + room, box[3] + room))
+        xmin, ymin, xmax, ymax = box.tolist()
         ox, oy = self.origin
+        rows, cols = self.logodds.shape
+        if not (
+            xmin - room >= ox
+            and ymin - room >= oy
+            and xmax + room < ox + cols * room
+            and ymax + room < oy + rows * room
+        ):  # the quick test; ensure_contains applies the exact one (the scan needs half the room)
+            self.ensure_contains((xmin - room, ymin - room), (xmax + room, ymax + room))
+            ox, oy = self.origin
         cells = (ends - (ox, oy)) / cfg.resolution - 0.5
         self._scans += 1
         fresh = integrate_scan(
