@@ -105,13 +105,23 @@ floor plan 0), ``world_size`` (width, height of a generated floor plan, metres),
 ``robots`` (3), ``max_cycles`` (1500), ``merge`` (True), ``merge_interval`` (50),
 ``method`` ("tomographic"), ``coverage_target`` (0.9), ``crop_size`` (64),
 ``crop_resolution`` (0.1 m), ``simulation`` (a ``tomosim.simulation.SimulationConfig``),
-``render_mode`` (None or "rgb_array": ground truth, team knowledge, merged map
-and robots, one pixel per truth cell), ``floors`` (None, or floor plan seeds: each
-reset generates a floor drawn from them, of ``world_size``; use
+``render_mode`` (None, "rgb_array" or "human"; below), ``floors`` (None, or floor
+plan seeds: each reset generates a floor drawn from them, of ``world_size``; use
 ``TRAINING_FLOORS`` to learn and ``HELD_OUT_FLOORS``, disjoint from them, to
 evaluate), ``observation_format`` ("metric", the table above, or "normalised",
 for learners: the map as a ``uint8`` image of channels free, occupied, unknown,
 scan and pose scaled to ``[0, 1]`` and ``[-1, 1]``; see :mod:`envs.observations`).
+
+Rendering
+---------
+A frame shows the ground truth, what the team knows (tinted blue), the merged
+map's walls placed by the truth (magenta) and the robots, one pixel per truth
+cell. ``render_mode="rgb_array"``: ``render()`` returns it as a ``(rows, cols,
+3)`` uint8 array. ``render_mode="human"``: ``reset()``, ``step()`` and
+``render()`` draw it in a matplotlib window, at ``render_fps`` frames a
+second, and ``render()`` returns None; without a display (matplotlib's
+``Agg`` backend) the frames go to an off-screen figure instead, ``env.window.figure``,
+and no window opens. ``close()`` closes the window.
 
 Seeding
 -------
@@ -122,8 +132,9 @@ poses, odometry and lidar noise, merging) comes from streams derived from it.
 Version history
 ---------------
 * v0: initial version. Later additions left its defaults (spaces, dynamics,
-  rewards) as they were and so kept the name: the options ``floors`` and
-  ``observation_format``, and the ``episode`` info of the last step.
+  rewards) as they were and so kept the name: ``render_mode="human"``, the
+  options ``floors`` and ``observation_format``, and the ``episode`` info of the
+  last step.
 """
 
 from __future__ import annotations
@@ -150,7 +161,7 @@ from envs.observations import (
     observe,
     pose_bound,
 )
-from envs.rendering import render_frame
+from envs.rendering import HumanWindow, render_frame
 from merging.api import DEFAULT_METHOD
 from tomosim.episode import load_world
 from tomosim.simulation import SimulationConfig
@@ -176,7 +187,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
 
     metadata: dict[str, Any] = {  # noqa: RUF012  # PettingZoo reads the class attribute
         "name": "multi_robot_exploration_v0",
-        "render_modes": ["rgb_array"],
+        "render_modes": ["human", "rgb_array"],
         "is_parallelizable": True,
         "render_fps": 10,
     }
@@ -267,6 +278,9 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self._merge_source: Any = None
         self._merge_info: dict[str, Any] = {}
         self._returns = np.zeros(len(self.possible_agents))
+        self.window: HumanWindow | None = None
+        if render_mode == "human":
+            self.window = HumanWindow(self.metadata["render_fps"], title=self.metadata["name"])
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """The observation space of ``agent`` (the same object every call)."""
@@ -301,6 +315,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
         )
         self.agents = list(self.possible_agents)
+        if self.window is not None:
+            self.render()
         return self._observations(), self._infos(merged_now=False)
 
     def step(
@@ -339,6 +355,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         if done or cut:
             self._end_episode(infos, terminated=bool(done))
             self.agents = []
+        if self.window is not None:
+            self.render()
         return observations, rewards, terminations, truncations, infos
 
     def _end_episode(self, infos: dict[str, dict[str, Any]], *, terminated: bool) -> None:
@@ -403,14 +421,23 @@ class MultiRobotExplorationEnv(ParallelEnv):
         return infos
 
     def render(self) -> NDArray[np.uint8] | None:
-        """The current frame as an RGB array (``render_mode="rgb_array"``), else None."""
+        """The current frame (module docstring): an RGB array for "rgb_array", else None.
+
+        With ``render_mode="human"`` the frame is drawn in the window instead.
+        """
         if self.render_mode is None or self.session is None:
             return None
-        return render_frame(self.session)
+        frame = render_frame(self.session)
+        if self.window is not None:
+            self.window.show(frame)
+            return None
+        return frame
 
     def close(self) -> None:
-        """Release the episode."""
+        """Release the episode and close the window, if any."""
         self.session = None
+        if self.window is not None:
+            self.window.close()
 
 
 def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:

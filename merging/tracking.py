@@ -3,16 +3,13 @@
 Once two maps have been merged, the next merge of the same pair sees the
 same maps grown a little; the transform between their frames moves only by
 odometry drift. :func:`track_transform` therefore skips the global search of
-:mod:`merging.tomographic` (rotation spectra, translation correlation,
-screening) and runs only its last two stages from the previous transform:
-Gauss-Newton refinement on the sharp fields (:func:`merging.refine.refine_transform`,
-local fields only) and verification (:func:`merging.verify.verify`,
-:func:`merging.verify.confidence`). It keeps a transform from jumping between
-rounds, and costs a fraction of a global search.
+:mod:`merging.tomographic` and refines the previous transform, carried onto
+the maps' current cells, with :func:`merging.tomographic.refine_from` (the
+default method's refinement and confidence, without a runner-up). It keeps
+a transform from jumping between rounds and costs a fraction of a search.
 
-There is no runner-up hypothesis to compare with, so the confidence's
-distinctiveness factor is 1; instead a tracked transform is refused when the
-refinement moved it further than :data:`MAX_TRACK_ROTATION_DEG` or
+With no runner-up to compare with, a tracked transform is also refused when
+the refinement moved it further than :data:`MAX_TRACK_ROTATION_DEG` or
 :data:`MAX_TRACK_TRANSLATION_CELLS` from where it started: a drift that large
 means the track is lost, and the caller should search globally again (as it
 should every few rounds anyway).
@@ -22,32 +19,34 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.api import MIN_OCCUPIED_CELLS
 from merging.grid import OccupancyGrid, occupied_mask
-from merging.refine import SHARP_ITERATIONS, SIGMA_SCHEDULE, SmoothedMap, constraint_strength
-from merging.refine import refine_transform as refine
+from merging.params import DEFAULT_PARAMS, TomographicParams
 from merging.result import MergeResult
+from merging.tomographic import refine_from
 from merging.transforms import cells_to_metres, matrix_to_pose
-from merging.verify import ACCEPT_CONFIDENCE, confidence, prepare_map, verify
 
-TRACK_SIGMAS = SIGMA_SCHEDULE[1:]
-"""Field widths of the tracked refinement (cells): a previous transform is within a
-cell or two, so the widest field of the global search is not needed."""
 MAX_TRACK_ROTATION_DEG = 3.0
 """Degrees a tracked transform may turn from its start: odometry drift between two
 rounds turns a frame by well under a degree."""
 MAX_TRACK_TRANSLATION_CELLS = 10.0
 """Cells (0.5 m at 0.05 m) a tracked transform may move map 2's origin from its start."""
-MIN_OCCUPIED_CELLS = 10
-"""Occupied cells each map needs before a transform can be checked at all."""
 METHOD = "tomographic-tracked"
 """The ``method`` of a tracked result."""
 
 
-def track_transform(map1: OccupancyGrid, map2: OccupancyGrid, previous: ArrayLike) -> MergeResult:
+def track_transform(
+    map1: OccupancyGrid,
+    map2: OccupancyGrid,
+    previous: ArrayLike,
+    *,
+    params: TomographicParams = DEFAULT_PARAMS,
+) -> MergeResult:
     """Refine and verify a known transform of ``map2``'s frame into ``map1``'s.
 
     Parameters
@@ -57,16 +56,18 @@ def track_transform(map1: OccupancyGrid, map2: OccupancyGrid, previous: ArrayLik
     previous : (3, 3) array_like
         Rigid matrix taking ``map2``'s frame to ``map1``'s, metres (a
         :attr:`MergeResult.matrix_metres` of an earlier round).
+    params : TomographicParams
+        The default method's settings (``from_start`` is the refinement).
 
     Returns
     -------
     MergeResult
         ``matrix`` (cells, eq. 1 of the paper) and ``matrix_metres`` refined;
-        ``accepted`` when the refined transform verifies with confidence
-        :data:`~merging.verify.ACCEPT_CONFIDENCE` or more and stayed near its
-        start; ``reason`` says why not otherwise.
+        ``accepted`` when :func:`~merging.tomographic.refine_from` accepts the
+        refined transform and it stayed near its start; ``reason`` says why
+        not otherwise.
     """
-    start_clock = time.perf_counter()
+    clock = time.perf_counter()
     start = np.asarray(previous, dtype=np.float64)
     if start.shape != (3, 3) or not np.all(np.isfinite(start)):
         raise ValueError(f"previous must be a finite 3x3 matrix, got shape {start.shape}")
@@ -77,37 +78,24 @@ def track_transform(map1: OccupancyGrid, map2: OccupancyGrid, previous: ArrayLik
     initial = frame_to_cells(start, map1, map2)
     counts = (int(occupied_mask(map1.data).sum()), int(occupied_mask(map2.data).sum()))
     if min(counts) < MIN_OCCUPIED_CELLS:
-        return MergeResult(
-            initial, 0.0, False, METHOD, start, reason=f"too few occupied cells {counts}"
-        )
-    first, second = prepare_map(map1.data), prepare_map(map2.data)
-    smoothed = SmoothedMap(first.walls, first.shape)
-    matrix = refine(
-        smoothed, second, initial, sigmas=TRACK_SIGMAS, iterations=SHARP_ITERATIONS, local=True
-    )
-    check = verify(first, second, matrix)
-    strength = constraint_strength(smoothed, second, matrix, local=True)
-    score = confidence(check, None, strength=strength)
-    dx, dy, turn = matrix_to_pose(np.linalg.inv(initial) @ matrix)
+        why = f"too few occupied cells to match (map1 {counts[0]}, map2 {counts[1]})"
+        return MergeResult(initial, 0.0, False, METHOD, start, reason=why)
+    result = refine_from(map1, map2, initial, params=params)
+    dx, dy, turn = matrix_to_pose(np.linalg.inv(initial) @ result.matrix)
     moved = math.hypot(dx, dy)
-    reason = ""
+    reason = result.reason
     if abs(math.degrees(turn)) > MAX_TRACK_ROTATION_DEG or moved > MAX_TRACK_TRANSLATION_CELLS:
         reason = (
             f"track lost: the refinement moved {math.degrees(turn):.1f} deg and "
             f"{moved:.1f} cells from the previous transform"
         )
-    elif score < ACCEPT_CONFIDENCE:
-        reason = (
-            f"tracked confidence {score:.2f} below {ACCEPT_CONFIDENCE}: agreement "
-            f"{check.agreement:.2f}, conflict {check.conflict:.2f}, constraint {strength:.1f}"
-        )
-    return MergeResult(
-        matrix=matrix,
-        confidence=score,
-        accepted=not reason,
+    timings = {**result.timings, "total": time.perf_counter() - clock}
+    return replace(
+        result,
+        accepted=result.accepted and not reason,
         method=METHOD,
-        matrix_metres=cells_to_metres(matrix, map1, map2),
-        timings={"total": time.perf_counter() - start_clock},
+        matrix_metres=cells_to_metres(result.matrix, map1, map2),
+        timings=timings,
         reason=reason,
     )
 
