@@ -140,7 +140,7 @@ def observe(
 def command(action: object, *, name: str) -> NDArray[np.float64]:
     """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
     values = np.asarray(action, dtype=np.float64).reshape(-1)
-    if values.shape != (2,) or not np.all(np.isfinite(values)):
+    if values.shape != (2,) or not (math.isfinite(values[0]) and math.isfinite(values[1])):
         raise ValueError(
             f"the action of {name} must be two finite numbers (linear, angular), got {action!r}"
         )

@@ -146,7 +146,9 @@ def integrate_scan(
             before = flat[cell]
             value = before + miss
             value = value if value > low else low
-            if value != before or not seen[cell]:  # a cell at the clamp keeps its code
+            # A value the clamp kept unchanged is the clamp (not 0): the cell was seen
+            # before and keeps its code, so only changed cells are recoded.
+            if value != before:
                 flat[cell] = value
                 touched[count] = cell
                 count += 1
