@@ -127,5 +127,12 @@ class WorkerSearches:
 
 
 def searches(*, worker: bool) -> Searches:
-    """Worker searches when asked for, else inline ones (the same results either way)."""
-    return WorkerSearches() if worker else InlineSearches()
+    """Worker searches when asked for, else inline ones (the same results either way).
+
+    The worker is started here if it is not running yet, so that its start (a
+    second or so) falls on the session's construction, not on a step.
+    """
+    if not worker:
+        return InlineSearches()
+    WorkerSearches.worker()
+    return WorkerSearches()
