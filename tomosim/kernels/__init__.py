@@ -14,8 +14,8 @@ kernel                                   oracle
                                          :func:`tomosim.mapping.ros_codes`
 :func:`~tomosim.kernels.coverage.reveal_cells`   the evaluation rule of
                                          :func:`tomosim.evaluation.known_in_world`
-:func:`~tomosim.kernels.crop.crop_max_pool`      :meth:`tomosim.team.SharedMaps.crop`'s
-                                         numpy windows
+:func:`~tomosim.kernels.crop.crop_max_pool`      window slicing and a reshaped maximum in
+                                         numpy (``tests/tomosim/test_kernels.py``)
 =======================================  ==============================================
 
 The modules here import neither pymunk, PettingZoo nor rerun, and nothing of

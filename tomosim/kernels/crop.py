@@ -1,10 +1,10 @@
 """A pooled window of a robot's best map, compiled.
 
-Its specification and oracle is :meth:`tomosim.team.sharing.SharedMaps.crop`
-in numpy terms: cut the window out of the robot's own grid (unknown off the
-grid), fill its unknown cells from the teammate layer, and keep the maximum
-of each ``pool x pool`` block (in the ROS coding: known beats unknown,
-occupied beats free).
+It computes :meth:`tomosim.team.sharing.SharedMaps.crop`: cut the window out
+of the robot's own grid (unknown off the grid), fill its unknown cells from
+the teammate layer, and keep the maximum of each ``pool x pool`` block (in
+the ROS coding: known beats unknown, occupied beats free). The tests compare
+it with exactly that, written with numpy slices.
 """
 
 from __future__ import annotations
