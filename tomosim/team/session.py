@@ -31,6 +31,7 @@ from tomosim.team.coverage import TeamCoverage
 from tomosim.team.merger import TeamMerge, TeamMerger
 from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
+from tomosim.team.tracking import TrackingEstimator
 from tomosim.worlds.world import RngLike, World, as_generator
 
 
@@ -51,6 +52,14 @@ class TeamConfig:
         before the pair links maps (:class:`~tomosim.team.merger.TeamMerger`).
     share_interval : int
         Steps between updates of a linked robot's view of its teammates' maps.
+    tracking : bool
+        With the default (tomographic) method: track linked pairs' transforms
+        between rounds and search globally only when needed
+        (:class:`~tomosim.team.tracking.TrackingEstimator`); other methods
+        always search every pair.
+    merge_worker : bool
+        Run the tracker's global searches in a worker process (the results,
+        collected at a fixed later round, are the same either way).
     simulation : SimulationConfig
         Robots, lidar, odometry and mapping.
     """
@@ -60,6 +69,8 @@ class TeamConfig:
     merge_interval: int = 50
     confirmations: int = 2
     share_interval: int = 10
+    tracking: bool = True
+    merge_worker: bool = True
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
 
     def __post_init__(self) -> None:
@@ -126,12 +137,18 @@ class TeamSession:
             world, robots=robots, config=self.config.simulation, rng=sim_rng
         )
         count = self.simulation.count
+        tracker = None
+        if self.config.tracking and self.config.method == DEFAULT_METHOD:
+            tracker = TrackingEstimator(
+                method=self.config.method, worker=self.config.merge_worker, rng=merge_rng
+            )
         self.merger = (
             TeamMerger(
                 method=self.config.method,
                 interval=self.config.merge_interval,
                 confirmations=self.config.confirmations,
                 rng=merge_rng,
+                estimator=tracker,
             )
             if self.config.merge
             else None
@@ -141,12 +158,13 @@ class TeamSession:
             world,
             self.simulation.start_poses,
             resolution=self.config.simulation.mapping.resolution,
-            reach=self.config.simulation.lidar.max_range,
         )
         self.last_merge: TeamMerge | None = None
         self.last_quality: RoundQuality | None = None
         self._grids: list[OccupancyGrid] | None = None
-        self.rewards = self.coverage.update(self.grids(), self._positions())
+        self.rewards = self.coverage.update(self.grids())
+        for grid_map in self.simulation.maps:  # from now on, coverage follows what is new
+            grid_map.start_journal()
 
     @property
     def count(self) -> int:
@@ -173,20 +191,17 @@ class TeamSession:
         """Advance one step (module docstring); returns the merge round run, if any, scored."""
         self.simulation.step(commands)
         self._grids = None
-        grids = self.grids()
-        self.rewards = self.coverage.update(grids, self._positions())
+        self.rewards = self.coverage.reveal([m.take_journal() for m in self.simulation.maps])
         scored = None
         if self.merger is not None and self.merger.due(self.steps):
+            grids = self.grids()
             merge = self.merger.merge(self.steps, grids)
             scored = score_round(merge, grids, self.simulation.start_poses, self.world.truth)
             self.last_merge, self.last_quality = merge, scored
             self.shared.link(merge)
-        self.shared.refresh(self.steps, grids)
+        if self.shared.due(self.steps):
+            self.shared.refresh(self.steps, self.grids())
         return scored
-
-    def _positions(self) -> NDArray[np.float64]:
-        """``(N, 2)`` estimated positions, each in its robot's map frame."""
-        return self.simulation.odometry_poses[:, :2]
 
     def linked(self, robot: int) -> bool:
         """Whether robot ``robot``'s best map includes teammates' maps."""
@@ -199,4 +214,7 @@ class TeamSession:
     def best_crop(self, robot: int, *, size: int, pool: int) -> NDArray[np.int8]:
         """A window of the best map around the robot's pose estimate (:meth:`SharedMaps.crop`)."""
         pose = self.simulation.odometry[robot].pose
-        return self.shared.crop(robot, self.grids(), pose[:2], size=size, pool=pool)
+        own = self.simulation.maps[robot]
+        return self.shared.crop_cells(
+            robot, own.cells, own.anchor, own.config.resolution, pose[:2], size=size, pool=pool
+        )

@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
 from merging.warp import warp_cells
+from tomosim.kernels.crop import crop_max_pool
 from tomosim.team.merger import TeamMerge
 
 ANCHOR_TOLERANCE = 1e-6
@@ -47,6 +48,8 @@ ANCHOR_TOLERANCE = 1e-6
 (origins are sums of whole cells in metres, so only rounding separates them)."""
 
 
+NO_LAYER = np.zeros((0, 0), dtype=np.int8)
+"""The teammate layer of a robot that has none, as the crop kernel takes it."""
 EDGE_TOLERANCE = 1e-6
 """Cells: a cell centre this close outside a carried grid's outline still counts as
 inside, so that rounding in rotation matrices cannot drop a row of the layer."""
@@ -212,6 +215,13 @@ class SharedMaps:
         """Robots whose maps robot ``robot`` sees in its best map."""
         return tuple(sorted(self._links[robot]))
 
+    def due(self, step: int) -> bool:
+        """Whether :meth:`refresh` at ``step`` would rebuild some robot's layer."""
+        return any(
+            links and (last is None or step - last >= self.refresh_interval)
+            for links, last in zip(self._links, self._refreshed, strict=True)
+        )
+
     def refresh(self, step: int, grids: Sequence[OccupancyGrid]) -> None:
         """Rebuild the teammate layers that are due at ``step`` from the current ``grids``."""
         for robot in range(self.count):
@@ -265,13 +275,37 @@ class SharedMaps:
         The robot's cell is output cell ``(size // 2, size // 2)``.
         """
         own = grids[robot]
-        res = own.resolution
+        return self.crop_cells(
+            robot, own.data, grid_anchor(own), own.resolution, centre, size=size, pool=pool
+        )
+
+    def crop_cells(
+        self,
+        robot: int,
+        cells: NDArray[np.int8],
+        anchor: tuple[int, int],
+        resolution: float,
+        centre: ArrayLike,
+        *,
+        size: int,
+        pool: int,
+    ) -> NDArray[np.int8]:
+        """:meth:`crop` of the robot's own cells given as an array on its lattice, its
+        cell ``(0, 0)`` at lattice ``anchor`` (no grid needed: a live map's cells will do)."""
         x, y = (float(v) for v in np.asarray(centre, dtype=float)[:2])
         fine = size * pool
-        start = (math.floor(x / res) - fine // 2, math.floor(y / res) - fine // 2)
-        cells = window(own.data, grid_anchor(own), start, (fine, fine))
+        start = (math.floor(x / resolution) - fine // 2, math.floor(y / resolution) - fine // 2)
         layer = self._layers[robot]
-        if layer is not None:
-            mates = window(layer[0], layer[1], start, (fine, fine))
-            np.copyto(cells, mates, where=cells < 0)
-        return cells.reshape(size, pool, size, pool).max(axis=(1, 3))
+        mates, mates_anchor = layer if layer is not None else (NO_LAYER, (0, 0))
+        return crop_max_pool(
+            cells,
+            anchor[0],
+            anchor[1],
+            mates,
+            mates_anchor[0],
+            mates_anchor[1],
+            start[0],
+            start[1],
+            size,
+            pool,
+        )
