@@ -4,7 +4,16 @@ The inverse sensor model is that of :func:`tomosim.mapping.integrate_rays`
 (its specification and test oracle), computed with the same single-precision
 sample positions, so both mark the same cells. Instead of fancy-indexed
 gathers, each cell passed is counted once per scan through a *stamp* grid
-holding the number of the last scan that passed it. The kernel also
+holding the number of the last scan that passed it.
+
+The loop over a scan's samples (some 26,000 for 360 beams of 8 m at 5 cm, half
+of them near the sensor, where many beams cross the same cells) has no branch
+that depends on the data: whether a cell was passed before in this scan changes
+*what* is written (its new value, or its old one again), not *whether*, and the
+index of a changed cell is always stored and kept by advancing the count by
+one or zero. A branch there would be mispredicted at random near the sensor;
+without it the loop costs about 60 % of what it did. Indices are unsigned, so
+that the compiled code skips the wrap-around of negative indices. The kernel also
 
 * recodes, in the ROS coding of :func:`tomosim.mapping.ros_codes`, exactly
   the cells the scan changed, so that the exported grid is never converted
@@ -128,7 +137,8 @@ def integrate_scan(
         length = math.hypot(ends[i, 0] - origin_x, ends[i, 1] - origin_y)
         total += max(math.ceil(length / sample_step), 1)
     touched = np.empty(total + hits, dtype=np.int64)
-    count = 0
+    count = np.uint64(0)
+    stamp_now = stamps.dtype.type(scan_id)
     # Passes: sample j of beam i at origin + j / n * (end - origin), j < n, once per cell.
     for i in range(beams):
         dx = ends[i, 0] - origin_x
@@ -139,25 +149,25 @@ def integrate_scan(
         for j in range(samples):
             xs = step_x * np.float32(j) + offset_x
             ys = step_y * np.float32(j) + offset_y
-            cell = int(ys) * cols + int(xs)
-            if stamp[cell] == scan_id:
-                continue
-            stamp[cell] = scan_id
+            cell = np.uint64(np.int64(ys) * cols + np.int64(xs))
+            first_pass = stamp[cell] != stamp_now
+            stamp[cell] = stamp_now
             before = flat[cell]
             value = before + miss
             value = value if value > low else low
-            # A value the clamp kept unchanged is the clamp (not 0): the cell was seen
-            # before and keeps its code, so only changed cells are recoded.
-            if value != before:
-                flat[cell] = value
-                touched[count] = cell
-                count += 1
+            # A cell passed before in this scan keeps its value (written back). A value
+            # the clamp kept unchanged is the clamp (not 0): the cell was seen before
+            # and keeps its code, so only changed cells are kept for recoding.
+            value = value if first_pass else before
+            flat[cell] = value
+            touched[count] = cell
+            count += np.uint64(value != before)
     for h in range(hits):
         value = hit_before[h] + np.float32(log_odds_hit)
         high = np.float32(log_odds_max)
         flat[hit_cells[h]] = value if value < high else high
         touched[count] = hit_cells[h]
-        count += 1
+        count += np.uint64(1)
     fresh = np.empty(count, dtype=np.int64)
     new = 0
     for t in range(count):
