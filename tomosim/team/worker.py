@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import queue
 import subprocess
 import sys
 import threading
@@ -57,7 +58,14 @@ class InlineSearches:
 
 
 class _Worker:
-    """The worker process of this process, and a thread that reads its answers."""
+    """The worker process of this process, a thread that writes it the jobs and one that
+    reads its answers.
+
+    Jobs go through a queue to the writing thread: a job (two grids) is larger
+    than a pipe holds, so writing it blocks until the worker reads it, which it
+    does only once it has finished the search before; the caller, stepping a
+    simulation meanwhile, must not wait for that.
+    """
 
     def __init__(self) -> None:
         self.process = subprocess.Popen(
@@ -69,20 +77,31 @@ class _Worker:
         self.lock = threading.Lock()
         self.futures: dict[int, Future[MergeResult]] = {}
         self.next_job = 0
+        self.jobs: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        writer = threading.Thread(target=self._write, name="merge-search-jobs", daemon=True)
+        writer.start()
         reader = threading.Thread(target=self._read, name="merge-search-results", daemon=True)
         reader.start()
 
     def submit(self, job: tuple[Any, ...]) -> Future[MergeResult]:
         future: Future[MergeResult] = Future()
-        stdin = self.process.stdin
-        assert stdin is not None  # opened as a pipe
         with self.lock:
             number = self.next_job
             self.next_job += 1
             self.futures[number] = future
-            pickle.dump((number, *job), stdin, protocol=pickle.HIGHEST_PROTOCOL)
-            stdin.flush()
+            self.jobs.put(pickle.dumps((number, *job), protocol=pickle.HIGHEST_PROTOCOL))
         return future
+
+    def _write(self) -> None:
+        stdin = self.process.stdin
+        assert stdin is not None  # opened as a pipe
+        while True:
+            job = self.jobs.get()
+            try:
+                stdin.write(job)
+                stdin.flush()
+            except OSError:  # the worker ended; the reading thread fails the futures
+                return
 
     def _read(self) -> None:
         stdout = self.process.stdout
