@@ -199,17 +199,18 @@ def numpy_crop(
     return cells.reshape(size, pool, size, pool).max(axis=(1, 3))
 
 
+@pytest.mark.parametrize("pool", [2, 3])  # 2, the default, has a loop of its own
 @pytest.mark.parametrize("with_layer", [False, True])
-def test_crop_kernel_matches_numpy_windows(with_layer: bool) -> None:
+def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
     rng = np.random.default_rng(7)
     own = rng.choice(
         np.array([-1, 0, 10, 50, 100], np.int8), size=(40, 50), p=[0.5, 0.2, 0.1, 0.1, 0.1]
     )
     layer = rng.choice(np.array([-1, 0, 100], np.int8), size=(30, 30)) if with_layer else None
     for start in [(-5, -7), (10, 12), (40, 30), (-40, -40)]:
-        expected = numpy_crop(own, (3, -2), layer, (20, 15), start, 8, 3)
+        expected = numpy_crop(own, (3, -2), layer, (20, 15), start, 8, pool)
         ours = crop_max_pool(
             own, 3, -2, layer if layer is not None else np.zeros((0, 0), np.int8), 20, 15,
-            start[0], start[1], 8, 3,
+            start[0], start[1], 8, pool,
         )  # fmt: skip
         np.testing.assert_array_equal(ours, expected)

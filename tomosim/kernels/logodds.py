@@ -237,3 +237,95 @@ def beam_ends(
         box[3] = max(box[3], ey)
         used += 1
     return ends[:used], hit[:used], box
+
+
+@kernel
+def update_grid(
+    logodds: NDArray[np.float32],
+    observed: NDArray[np.bool_],
+    codes: NDArray[np.int8],
+    stamps: NDArray[np.int32],
+    scan_id: int,
+    grid_x: float,
+    grid_y: float,
+    resolution: float,
+    pose_x: float,
+    pose_y: float,
+    pose_theta: float,
+    angles: NDArray[np.float64],
+    ranges: NDArray[np.float64],
+    max_range: float,
+    carve_no_return: bool,
+    room_checked: bool,
+    log_odds_hit: float,
+    log_odds_miss: float,
+    log_odds_min: float,
+    log_odds_max: float,
+    sample_step: float,
+    hit_depth: float,
+    thresholds: NDArray[np.float64],
+    anchor_a: int,
+    anchor_b: int,
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """One scan into a grid whose cell ``(0, 0)`` has its corner at ``(grid_x, grid_y)`` metres.
+
+    The steps of :meth:`tomosim.mapping.LogOddsMap.update` in one call:
+    :func:`beam_ends`, the check that the grid holds the beams with a cell of
+    room (unless ``room_checked``), the end points in cell coordinates, and
+    :func:`integrate_scan`. Arguments are those of the two kernels, the pose
+    ``(pose_x, pose_y, pose_theta)``, the scan's ``angles``, ``ranges`` and
+    ``max_range``, and the lattice index ``(anchor_a, anchor_b)`` of cell ``(0, 0)``.
+
+    Returns
+    -------
+    grow : (0,) or (4,) float ndarray
+        Empty when the scan was integrated; else ``(xmin, ymin, xmax, ymax)``,
+        metres, a box the grid must be grown to hold before the scan can be
+        (nothing was changed).
+    fresh : (K, 2) int64 ndarray
+        Lattice cells ``(a, b)`` observed for the first time.
+    """
+    none = np.zeros((0, 2), dtype=np.int64)
+    no_growth = np.zeros(0)
+    ends, hit, box = beam_ends(
+        pose_x, pose_y, pose_theta, angles, ranges, max_range, carve_no_return
+    )
+    if ends.shape[0] == 0:
+        return no_growth, none
+    # One cell of room beyond the end points for the hit cells (the hit depth).
+    room = resolution
+    rows, cols = logodds.shape
+    if not room_checked and not (
+        box[0] - room >= grid_x
+        and box[1] - room >= grid_y
+        and box[2] + room < grid_x + cols * room
+        and box[3] + room < grid_y + rows * room
+    ):
+        return np.array([box[0] - room, box[1] - room, box[2] + room, box[3] + room]), none
+    cells = np.empty_like(ends)
+    for i in range(ends.shape[0]):
+        cells[i, 0] = (ends[i, 0] - grid_x) / resolution - 0.5
+        cells[i, 1] = (ends[i, 1] - grid_y) / resolution - 0.5
+    fresh = integrate_scan(
+        logodds,
+        observed,
+        codes,
+        stamps,
+        scan_id,
+        (pose_x - grid_x) / resolution - 0.5,
+        (pose_y - grid_y) / resolution - 0.5,
+        cells,
+        hit,
+        log_odds_hit,
+        log_odds_miss,
+        log_odds_min,
+        log_odds_max,
+        sample_step,
+        hit_depth,
+        thresholds,
+    )
+    lattice = np.empty((fresh.shape[0], 2), dtype=np.int64)
+    for k in range(fresh.shape[0]):
+        lattice[k, 0] = fresh[k] % cols + anchor_a
+        lattice[k, 1] = fresh[k] // cols + anchor_b
+    return no_growth, lattice
