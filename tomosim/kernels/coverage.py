@@ -76,3 +76,86 @@ def reveal_cells(
                 count += 1
             i += 1
     return found[:count]
+
+
+@kernel
+def reveal_team(
+    cells: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    origins: NDArray[np.int64],
+    widths: NDArray[np.int64],
+    keys: NDArray[np.int64],
+    members: NDArray[np.int64],
+    known: NDArray[np.bool_],
+    counts: NDArray[np.int64],
+    team_known: NDArray[np.bool_],
+    finders: NDArray[np.int32],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], int, bool]:
+    """:func:`reveal_cells` for every robot of a team, then what the team learnt.
+
+    Parameters
+    ----------
+    cells : (K, 2) int64 ndarray
+        Every robot's newly observed lattice cells, robot after robot.
+    starts : (N + 1,) int64 ndarray
+        Robot ``k``'s cells are ``cells[starts[k]:starts[k + 1]]``.
+    origins : (N, 2) int64 ndarray
+    widths : (N,) int64 ndarray
+    keys, members : (N, T) int64 ndarray
+    known : (N, T) bool ndarray
+        Per robot, the arguments of :func:`reveal_cells` (``known`` updated in place).
+    counts : (N,) int64 ndarray
+        Per robot, the number of truth cells it knows; updated in place.
+    team_known : (T,) bool ndarray
+        Which truth cells the team knows; updated in place.
+    finders : (T,) int32 ndarray
+        Zeros, used as scratch (zeros again on return).
+
+    Returns
+    -------
+    found : (M,) int64 ndarray
+        Per robot, robot after robot, the truth cells it knows for the first time
+        and the team knew not before this call.
+    found_starts : (N + 1,) int64 ndarray
+        Robot ``k``'s are ``found[found_starts[k]:found_starts[k + 1]]``.
+    newly_team : int
+        Truth cells the team knows for the first time (``M`` less repeats).
+    shared : bool
+        Whether some truth cell was found by more than one robot.
+    """
+    robots = starts.shape[0] - 1
+    newly = []
+    total = 0
+    for k in range(robots):
+        revealed = reveal_cells(
+            cells[starts[k] : starts[k + 1]],
+            origins[k, 0],
+            origins[k, 1],
+            widths[k],
+            keys[k],
+            members[k],
+            known[k],
+        )
+        newly.append(revealed)
+        counts[k] += revealed.shape[0]
+        total += revealed.shape[0]
+    found = np.empty(total, dtype=np.int64)
+    found_starts = np.zeros(robots + 1, dtype=np.int64)
+    count = 0
+    for k in range(robots):
+        for truth in newly[k]:
+            if not team_known[truth]:
+                found[count] = truth
+                count += 1
+                finders[truth] += 1
+        found_starts[k + 1] = count
+    shared = False
+    newly_team = 0
+    for m in range(count):
+        truth = found[m]
+        shared = shared or finders[truth] > 1
+        finders[truth] = 0
+        if not team_known[truth]:
+            team_known[truth] = True
+            newly_team += 1
+    return found[:count], found_starts, newly_team, shared
