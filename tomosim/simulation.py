@@ -194,16 +194,17 @@ class Simulation:
         command = np.asarray(commands, dtype=float)
         if command.shape != (self.count, 2):
             raise ValueError(f"commands must have shape ({self.count}, 2), got {command.shape}")
-        if not np.all(np.isfinite(command)) or np.any(np.abs(command) > 1.0):
-            raise ValueError(f"commands must be finite and within [-1, 1], got {command.tolist()}")
+        values = command.tolist()
+        if not all(math.isfinite(v) and abs(v) <= 1.0 for pair in values for v in pair):
+            raise ValueError(f"commands must be finite and within [-1, 1], got {values}")
         phys = self.config.physics
         self.physics.step(
-            command[:, 0] * phys.max_linear_speed,
-            command[:, 1] * phys.max_angular_speed,
+            [linear * phys.max_linear_speed for linear, _ in values],
+            [angular * phys.max_angular_speed for _, angular in values],
             self.config.dt,
         )
         self._true = self.physics.poses()
-        for odometry, pose in zip(self.odometry, self._true, strict=True):
+        for odometry, pose in zip(self.odometry, self._true.tolist(), strict=True):
             odometry.update(pose)
         self.steps += 1
         self._sense()
