@@ -16,6 +16,62 @@ from tomosim.kernels.jit import kernel
 
 
 @kernel
+def truth_under(
+    cells: NDArray[np.int64],
+    origin_a: int,
+    origin_b: int,
+    width: int,
+    keys: NDArray[np.int64],
+    starts: NDArray[np.int64],
+) -> int:
+    """Find where the truth cells under each of ``cells`` start in ``keys``; count them.
+
+    ``starts[k]`` becomes the index in ``keys`` of the first truth cell under
+    ``cells[k]``, or -1 where there is none (arguments as in :func:`reveal_cells`).
+    """
+    total = 0
+    for k in range(cells.shape[0]):
+        starts[k] = -1
+        a = cells[k, 0] - origin_a
+        if a < 0 or a >= width:
+            continue
+        key = (cells[k, 1] - origin_b) * width + a
+        i = np.searchsorted(keys, key)
+        if i < keys.shape[0] and keys[i] == key:
+            starts[k] = i
+            while i < keys.shape[0] and keys[i] == key:
+                total += 1
+                i += 1
+    return total
+
+
+@kernel
+def collect_truth(
+    starts: NDArray[np.int64],
+    keys: NDArray[np.int64],
+    members: NDArray[np.int64],
+    known: NDArray[np.bool_],
+    found: NDArray[np.int64],
+) -> int:
+    """Mark the truth cells :func:`truth_under` found and write those not known before
+    into ``found`` (long enough for all); returns how many it wrote."""
+    count = 0
+    for k in range(starts.shape[0]):
+        i = starts[k]
+        if i < 0:
+            continue
+        key = keys[i]
+        while i < keys.shape[0] and keys[i] == key:
+            truth = members[i]
+            if not known[truth]:
+                known[truth] = True
+                found[count] = truth
+                count += 1
+            i += 1
+    return count
+
+
+@kernel
 def reveal_cells(
     cells: NDArray[np.int64],
     origin_a: int,
@@ -48,34 +104,8 @@ def reveal_cells(
     """
     # Two passes: count the truth cells under the cells, then collect the unknown ones.
     starts = np.empty(cells.shape[0], dtype=np.int64)
-    total = 0
-    for k in range(cells.shape[0]):
-        starts[k] = -1
-        a = cells[k, 0] - origin_a
-        if a < 0 or a >= width:
-            continue
-        key = (cells[k, 1] - origin_b) * width + a
-        i = np.searchsorted(keys, key)
-        if i < keys.shape[0] and keys[i] == key:
-            starts[k] = i
-            while i < keys.shape[0] and keys[i] == key:
-                total += 1
-                i += 1
-    found = np.empty(total, dtype=np.int64)
-    count = 0
-    for k in range(cells.shape[0]):
-        i = starts[k]
-        if i < 0:
-            continue
-        key = keys[i]
-        while i < keys.shape[0] and keys[i] == key:
-            truth = members[i]
-            if not known[truth]:
-                known[truth] = True
-                found[count] = truth
-                count += 1
-            i += 1
-    return found[:count]
+    found = np.empty(truth_under(cells, origin_a, origin_b, width, keys, starts), dtype=np.int64)
+    return found[: collect_truth(starts, keys, members, known, found)]
 
 
 @kernel
@@ -124,31 +154,37 @@ def reveal_team(
         Whether some truth cell was found by more than one robot.
     """
     robots = starts.shape[0] - 1
-    newly = []
+    # 1. Per robot, where the truth cells under its cells lie, and how many there are.
+    under = np.empty(cells.shape[0], dtype=np.int64)
     total = 0
     for k in range(robots):
-        revealed = reveal_cells(
+        total += truth_under(
             cells[starts[k] : starts[k + 1]],
             origins[k, 0],
             origins[k, 1],
             widths[k],
             keys[k],
-            members[k],
-            known[k],
+            under[starts[k] : starts[k + 1]],
         )
-        newly.append(revealed)
-        counts[k] += revealed.shape[0]
-        total += revealed.shape[0]
+    # 2. Per robot, those it knows for the first time and the team did not know.
     found = np.empty(total, dtype=np.int64)
     found_starts = np.zeros(robots + 1, dtype=np.int64)
     count = 0
     for k in range(robots):
-        for truth in newly[k]:
+        revealed = collect_truth(
+            under[starts[k] : starts[k + 1]], keys[k], members[k], known[k], found[count:]
+        )
+        counts[k] += revealed
+        kept = count
+        for m in range(count, count + revealed):
+            truth = found[m]
             if not team_known[truth]:
-                found[count] = truth
-                count += 1
+                found[kept] = truth
+                kept += 1
                 finders[truth] += 1
+        count = kept
         found_starts[k + 1] = count
+    # 3. What the team learnt; the scratch back to zeros.
     shared = False
     newly_team = 0
     for m in range(count):

@@ -23,6 +23,7 @@ robots that newly know them, shared equally when several do at the same step.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -175,8 +176,7 @@ class TeamCoverage:
         if len(cells) != robots:
             raise ValueError(f"expected cells of {robots} robots, got {len(cells)}")
         lattices = [np.asarray(observed, dtype=np.int64).reshape(-1, 2) for observed in cells]
-        starts = np.zeros(robots + 1, dtype=np.int64)
-        starts[1:] = np.cumsum([len(lattice) for lattice in lattices])
+        starts = np.array([0, *itertools.accumulate(len(lattice) for lattice in lattices)])
         found, found_starts, newly, shared = reveal_team(
             np.ascontiguousarray(np.concatenate(lattices)),
             starts,
@@ -191,7 +191,7 @@ class TeamCoverage:
         )
         self._team_count += newly
         if not shared:  # every cell has one finder: credit is the count, exactly
-            return np.diff(found_starts).astype(np.float64) * self.cell_area
+            return (found_starts[1:] - found_starts[:-1]) * self.cell_area
         fresh = [found[found_starts[k] : found_starts[k + 1]] for k in range(robots)]
         finders = np.zeros(self.total, dtype=np.int32)
         for found_k in fresh:
