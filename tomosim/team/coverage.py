@@ -191,7 +191,8 @@ class TeamCoverage:
         )
         self._team_count += newly
         if not shared:  # every cell has one finder: credit is the count, exactly
-            return (found_starts[1:] - found_starts[:-1]) * self.cell_area
+            found_counts = (found_starts[1:] - found_starts[:-1]).astype(np.float64)
+            return found_counts * self.cell_area
         fresh = [found[found_starts[k] : found_starts[k + 1]] for k in range(robots)]
         finders = np.zeros(self.total, dtype=np.int32)
         for found_k in fresh:
