@@ -90,3 +90,27 @@ def test_searches_are_collected_later_with_their_results() -> None:
     failing = WorkerSearches().submit(grid, grid, method="no such method", seed=1)
     with pytest.raises(ValueError, match="unknown merging method"):
         failing.result(timeout=120)
+
+
+def test_a_waiting_caller_runs_the_searches_the_worker_has_not_started() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    inline = [
+        InlineSearches().submit(grid, grid, method="tomographic", seed=seed).result()
+        for seed in range(4)
+    ]
+    worker = WorkerSearches()
+    jobs = [worker.submit(grid, grid, method="tomographic", seed=seed) for seed in range(4)]
+    # The worker runs one search at a time: waiting for the first, this process runs
+    # later ones the worker has not started (which, depends on timing), and wherever
+    # a search ran, its result is the same.
+    first = worker.wait(jobs[0], jobs[1:])
+    assert first.confidence == inline[0].confidence
+    for job, expected in zip(jobs[1:], inline[1:], strict=True):
+        np.testing.assert_array_equal(worker.wait(job, []).matrix, expected.matrix)
+    failing = worker.submit(grid, grid, method="no such method", seed=1)
+    with pytest.raises(ValueError, match="unknown merging method"):
+        worker.wait(failing, [])

@@ -17,16 +17,22 @@ a process that may be a pool's worker itself, with its queues and threads
 (``fork``), and a pool's worker waits at exit for children it did not
 start. One worker serves every session of a process; it is started on first
 use and ends when its input closes (when this process exits).
+
+A search the worker has not started when its result is wanted is run by the
+caller itself (:meth:`WorkerSearches.wait`), as are the other searches the
+caller needs at the same round, while the worker finishes the one it has:
+the caller would otherwise wait idle, and the results are the same wherever
+a search runs.
 """
 
 from __future__ import annotations
 
 import os
 import pickle
-import queue
 import subprocess
 import sys
 import threading
+from collections.abc import Sequence
 from concurrent.futures import Future
 from typing import Any, Protocol
 
@@ -44,6 +50,24 @@ class Searches(Protocol):
         """Start ``estimate_transform(first, second, method=method, rng=seed)``."""
         ...
 
+    def wait(
+        self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]
+    ) -> MergeResult:
+        """The result of ``search``; ``others`` are searches the caller needs next, which
+        it may run meanwhile rather than sit idle."""
+        ...
+
+
+def _search(
+    job: tuple[OccupancyGrid, OccupancyGrid, str, int], future: Future[MergeResult]
+) -> None:
+    """Run a search job ``(first, second, method, seed)`` here, into ``future``."""
+    first, second, method, seed = job
+    try:
+        future.set_result(estimate_transform(first, second, method=method, rng=seed))
+    except Exception as error:  # handed to the caller, as the worker does
+        future.set_exception(error)
+
 
 class InlineSearches:
     """Runs each search at once, in this process; the result waits in a done future."""
@@ -53,18 +77,34 @@ class InlineSearches:
     ) -> Future[MergeResult]:
         """Run the search now (see :class:`Searches`)."""
         future: Future[MergeResult] = Future()
-        future.set_result(estimate_transform(first, second, method=method, rng=seed))
+        _search((first, second, method, seed), future)
         return future
+
+    def wait(
+        self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]
+    ) -> MergeResult:
+        """The result (done already; see :class:`Searches`)."""
+        return search.result()
+
+
+class _Job(Future[MergeResult]):
+    """A search handed to the worker, known by its number."""
+
+    def __init__(self, number: int) -> None:
+        super().__init__()
+        self.number = number
 
 
 class _Worker:
     """The worker process of this process, a thread that writes it the jobs and one that
     reads its answers.
 
-    Jobs go through a queue to the writing thread: a job (two grids) is larger
-    than a pipe holds, so writing it blocks until the worker reads it, which it
-    does only once it has finished the search before; the caller, stepping a
-    simulation meanwhile, must not wait for that.
+    Jobs wait in a queue until the worker is idle, and only then does the writing
+    thread send it the next (a job, two grids, is larger than a pipe holds, so
+    writing it would block until the worker read it): the caller, stepping a
+    simulation meanwhile, never waits for the pipe, and a job the worker has not
+    started can still be taken back (:meth:`take`) and run by a caller that would
+    otherwise wait idle for it.
     """
 
     def __init__(self) -> None:
@@ -74,31 +114,45 @@ class _Worker:
             stdout=subprocess.PIPE,
         )
         self.pid = os.getpid()
-        self.lock = threading.Lock()
-        self.futures: dict[int, Future[MergeResult]] = {}
+        self.lock = threading.Condition()
+        self.futures: dict[int, _Job] = {}  # sent to the worker, not answered yet
+        self.queued: dict[int, tuple[_Job, tuple[Any, ...]]] = {}  # not sent yet, in order
         self.next_job = 0
-        self.jobs: queue.SimpleQueue[bytes] = queue.SimpleQueue()
         writer = threading.Thread(target=self._write, name="merge-search-jobs", daemon=True)
         writer.start()
         reader = threading.Thread(target=self._read, name="merge-search-results", daemon=True)
         reader.start()
 
-    def submit(self, job: tuple[Any, ...]) -> Future[MergeResult]:
-        future: Future[MergeResult] = Future()
+    def submit(self, job: tuple[Any, ...]) -> _Job:
         with self.lock:
-            number = self.next_job
+            future = _Job(self.next_job)
             self.next_job += 1
-            self.futures[number] = future
-            self.jobs.put(pickle.dumps((number, *job), protocol=pickle.HIGHEST_PROTOCOL))
+            self.queued[future.number] = (future, job)
+            self.lock.notify_all()
         return future
+
+    def take(self, future: Future[MergeResult]) -> tuple[Any, ...] | None:
+        """Take back a job the worker has not been sent; None if it has (or was taken)."""
+        if not isinstance(future, _Job):
+            return None
+        with self.lock:
+            entry = self.queued.pop(future.number, None)
+        return None if entry is None else entry[1]
 
     def _write(self) -> None:
         stdin = self.process.stdin
         assert stdin is not None  # opened as a pipe
         while True:
-            job = self.jobs.get()
+            with self.lock:
+                while (
+                    self.futures or not self.queued
+                ):  # the worker is busy, or idle for lack of jobs
+                    self.lock.wait()
+                number = next(iter(self.queued))
+                future, job = self.queued.pop(number)
+                self.futures[number] = future
             try:
-                stdin.write(job)
+                stdin.write(pickle.dumps((number, *job), protocol=pickle.HIGHEST_PROTOCOL))
                 stdin.flush()
             except OSError:  # the worker ended; the reading thread fails the futures
                 return
@@ -114,12 +168,15 @@ class _Worker:
                     f"the merge search worker ended (exit status {self.process.poll()})"
                 )
                 with self.lock:
-                    for future in self.futures.values():
-                        future.set_exception(error)
+                    failed = [*self.futures.values(), *(f for f, _ in self.queued.values())]
                     self.futures.clear()
+                    self.queued.clear()
+                for future in failed:
+                    future.set_exception(error)
                 return
             with self.lock:
                 future = self.futures.pop(number)
+                self.lock.notify_all()
             if ok:
                 future.set_result(value)
             else:
@@ -141,8 +198,27 @@ class WorkerSearches:
     def submit(
         self, first: OccupancyGrid, second: OccupancyGrid, *, method: str, seed: int
     ) -> Future[MergeResult]:
-        """Queue the search in the worker (see :class:`Searches`)."""
+        """Queue the search for the worker (see :class:`Searches`)."""
         return self.worker().submit((first, second, method, seed))
+
+    def wait(
+        self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]
+    ) -> MergeResult:
+        """The result of ``search`` (see :class:`Searches`).
+
+        Rather than wait idle, this process runs ``search`` itself if the worker
+        has not started it, and then each of ``others`` the worker has not
+        started, until ``search`` is done: the worker and this process then
+        share the searches the caller needs now.
+        """
+        worker = self.worker()
+        for candidate in (search, *others):
+            if search.done():
+                break
+            job = worker.take(candidate)
+            if job is not None:
+                _search(job, candidate)
+        return search.result()
 
 
 def searches(*, worker: bool) -> Searches:
