@@ -24,7 +24,7 @@ def serve(jobs: IO[bytes], answers: IO[bytes]) -> None:
     while True:
         try:
             number, first, second, method, seed = pickle.load(jobs)
-        except EOFError:
+        except (EOFError, pickle.UnpicklingError):  # the end, or a caller that ended mid-job
             return
         answer: tuple[Any, ...]
         try:
