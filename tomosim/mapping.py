@@ -47,6 +47,10 @@ SAMPLE_STEP_CELLS = 1.0
 """Cells between samples along a beam: one sample per cell crossed straight;
 a diagonal crossing may skip a corner cell, which neighbouring beams fill."""
 
+STAMP_DTYPE = np.uint8
+"""Type of the kernel's per-cell scan stamps: one byte keeps them, and the cells a
+scan reads, in fewer cache lines; the stamps are cleared every 255 scans, when the
+scan numbers start again."""
 CODE_THRESHOLDS = code_thresholds()
 """Log-odds at which the ROS code of a cell steps up
 (:func:`~tomosim.kernels.logodds.code_thresholds`)."""
@@ -227,7 +231,7 @@ class LogOddsMap:
         # The ROS-coded grid, recoded cell by cell as scans change cells, and per
         # cell the number of the last scan that passed it (the kernel's stamps).
         self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
-        self._stamps = np.zeros((side, side), dtype=np.int32)
+        self._stamps = np.zeros((side, side), dtype=STAMP_DTYPE)
         self._scans = 0
         self.journal: list[NDArray[np.int64]] | None = None
 
@@ -302,7 +306,10 @@ class LogOddsMap:
         cfg = self.config
         room_checked = False
         while True:
-            self._scans += 1
+            # Scan numbers run 1..255 and start again on cleared stamps (STAMP_DTYPE).
+            self._scans = self._scans % np.iinfo(STAMP_DTYPE).max + 1
+            if self._scans == 1:
+                self._stamps.fill(0)
             a0, b0 = self.anchor
             grow, fresh = update_grid(
                 self.logodds,

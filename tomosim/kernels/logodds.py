@@ -25,6 +25,7 @@ that the compiled code skips the wrap-around of negative indices. The kernel als
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,7 +59,7 @@ def integrate_scan(
     logodds: NDArray[np.float32],
     observed: NDArray[np.bool_],
     codes: NDArray[np.int8],
-    stamps: NDArray[np.int32],
+    stamps: NDArray[np.unsignedinteger[Any]],
     scan_id: int,
     origin_x: float,
     origin_y: float,
@@ -82,10 +83,10 @@ def integrate_scan(
         Set for every cell the scan touches.
     codes : (rows, cols) int8 ndarray
         The ROS-coded grid; the cells the scan touches are recoded.
-    stamps : (rows, cols) int32 ndarray
+    stamps : (rows, cols) unsigned integer ndarray
         Per cell, the ``scan_id`` of the last scan that passed it; updated.
     scan_id : int
-        A number no earlier scan of this grid used (greater than every stamp).
+        A number no cell's stamp holds, and that fits the stamps' type.
     origin_x, origin_y : float
         Sensor position in cell coordinates ``(x, y) = (col, row)``.
     ends : (M, 2) float ndarray
@@ -244,7 +245,7 @@ def update_grid(
     logodds: NDArray[np.float32],
     observed: NDArray[np.bool_],
     codes: NDArray[np.int8],
-    stamps: NDArray[np.int32],
+    stamps: NDArray[np.unsignedinteger[Any]],
     scan_id: int,
     grid_x: float,
     grid_y: float,
