@@ -114,3 +114,24 @@ def test_a_waiting_caller_runs_the_searches_the_worker_has_not_started() -> None
     failing = worker.submit(grid, grid, method="no such method", seed=1)
     with pytest.raises(ValueError, match="unknown merging method"):
         worker.wait(failing, [])
+
+
+def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from concurrent.futures import Future
+
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from tomosim.team import worker as worker_module
+
+    def overflowing(*args: object, **kwargs: object) -> MergeResult:
+        np.exp(np.float64(1000.0))  # a RuntimeWarning: an error under this suite's filters
+        return MergeResult(np.eye(3), 0.0, False, "tomographic")
+
+    monkeypatch.setattr(worker_module, "estimate_transform", overflowing)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    taken: Future[MergeResult] = Future()
+    with pytest.warns(RuntimeWarning, match="overflow"):
+        worker_module._search((grid, grid, "tomographic", 1), taken, as_worker=True)
+    assert taken.exception() is None and not taken.result().accepted

@@ -32,6 +32,8 @@ import pickle
 import subprocess
 import sys
 import threading
+import time
+import warnings
 from collections.abc import Sequence
 from concurrent.futures import Future
 from typing import Any, Protocol
@@ -59,14 +61,25 @@ class Searches(Protocol):
 
 
 def _search(
-    job: tuple[OccupancyGrid, OccupancyGrid, str, int], future: Future[MergeResult]
+    job: tuple[OccupancyGrid, OccupancyGrid, str, int],
+    future: Future[MergeResult],
+    *,
+    as_worker: bool = False,
 ) -> None:
-    """Run a search job ``(first, second, method, seed)`` here, into ``future``."""
+    """Run a search job ``(first, second, method, seed)`` here, into ``future``.
+
+    ``as_worker``: under the worker's warning filters, Python's defaults (a warning
+    is shown, never raised), whatever this process's are, so that a search taken
+    back from the worker ends as it would have there.
+    """
     first, second, method, seed = job
-    try:
-        future.set_result(estimate_transform(first, second, method=method, rng=seed))
-    except Exception as error:  # handed to the caller, as the worker does
-        future.set_exception(error)
+    with warnings.catch_warnings():
+        if as_worker:
+            warnings.resetwarnings()
+        try:
+            future.set_result(estimate_transform(first, second, method=method, rng=seed))
+        except Exception as error:  # handed to the caller, as the worker does
+            future.set_exception(error)
 
 
 class InlineSearches:
@@ -184,9 +197,18 @@ class _Worker:
 
 
 class WorkerSearches:
-    """Runs searches in this process's worker process (module docstring)."""
+    """Runs searches in this process's worker process (module docstring).
+
+    Attributes
+    ----------
+    cpu_seconds_here : float
+        Class attribute: CPU seconds this process has spent on searches it took
+        back from the worker (:meth:`wait`); benchmarks subtract them to time the
+        simulation alone.
+    """
 
     _worker: _Worker | None = None
+    cpu_seconds_here: float = 0.0
 
     @classmethod
     def worker(cls) -> _Worker:
@@ -217,7 +239,9 @@ class WorkerSearches:
                 break
             job = worker.take(candidate)
             if job is not None:
-                _search(job, candidate)
+                clock = time.process_time()
+                _search(job, candidate, as_worker=True)
+                WorkerSearches.cpu_seconds_here += time.process_time() - clock
         return search.result()
 
 
