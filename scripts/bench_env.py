@@ -32,10 +32,12 @@ low. To compare with another checkout, run this script with
 ``PYTHONPATH=/path/to/that/checkout``.
 
 Measured on this 2-core machine while other work kept its load between 5 and
-7 (so the wall-clock rates are low and spread widely), 5 runs of 300 steps,
-back to back with the version before (median, cpu column): 3 robots 6000 to
-6600 robot-steps/s against 2700 to 3100 before, 8 robots about 5000 against
-2450 (README, "The environment: robot-steps per second", has the tables).
+7.5 (so the wall-clock rates are low and spread widely), three times 5 runs
+of 300 steps back to back with the version before (medians of the ``cpu``
+column): 3 robots 5183, 4494 and 5543 robot-steps/s against 2608, 2261 and
+3022 before; 8 robots 3734, 2992 and 4294 against 1966, 1736 and 2524. On an
+idle machine the wall clock is bounded by the merge searches as much as by
+the step (README, "The environment: robot-steps per second").
 
 Usage::
 
