@@ -135,3 +135,24 @@ def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
     with pytest.warns(RuntimeWarning, match="overflow"):
         worker_module._search((grid, grid, "tomographic", 1), taken, as_worker=True)
     assert taken.exception() is None and not taken.result().accepted
+
+
+def test_searches_fail_rather_than_hang_once_the_worker_has_ended(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from tomosim.team import worker as worker_module
+
+    own = worker_module._Worker()  # a worker of this test's own, not the shared one
+    monkeypatch.setattr(WorkerSearches, "_worker", own)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    own.process.kill()
+    own.process.wait(timeout=60)
+    searches_ = WorkerSearches()
+    for seed in range(3):  # sent, waiting, or submitted after the end: each one fails
+        job = searches_.submit(grid, grid, method="tomographic", seed=seed)
+        with pytest.raises(RuntimeError, match="worker ended"):
+            job.result(timeout=60)
+    for pipe in (own.process.stdin, own.process.stdout):
+        assert pipe is not None
+        pipe.close()

@@ -131,6 +131,7 @@ class _Worker:
         self.futures: dict[int, _Job] = {}  # sent to the worker, not answered yet
         self.queued: dict[int, tuple[_Job, tuple[Any, ...]]] = {}  # not sent yet, in order
         self.next_job = 0
+        self.ended: RuntimeError | None = None  # set once the worker is known to have ended
         writer = threading.Thread(target=self._write, name="merge-search-jobs", daemon=True)
         writer.start()
         reader = threading.Thread(target=self._read, name="merge-search-results", daemon=True)
@@ -140,9 +141,26 @@ class _Worker:
         with self.lock:
             future = _Job(self.next_job)
             self.next_job += 1
-            self.queued[future.number] = (future, job)
-            self.lock.notify_all()
+            if self.ended is None:
+                self.queued[future.number] = (future, job)
+                self.lock.notify_all()
+                return future
+        future.set_exception(self.ended)
         return future
+
+    def _end(self) -> None:
+        """The worker has ended: fail every job sent or waiting, and every later one."""
+        with self.lock:
+            self.ended = RuntimeError(
+                f"the merge search worker ended (exit status {self.process.poll()})"
+            )
+            failed = [*self.futures.values(), *(f for f, _ in self.queued.values())]
+            self.futures.clear()
+            self.queued.clear()
+            self.lock.notify_all()
+        for future in failed:
+            if not future.done():
+                future.set_exception(self.ended)
 
     def take(self, future: Future[MergeResult]) -> tuple[Any, ...] | None:
         """Take back a job the worker has not been sent; None if it has (or was taken)."""
@@ -157,17 +175,19 @@ class _Worker:
         assert stdin is not None  # opened as a pipe
         while True:
             with self.lock:
-                while (
-                    self.futures or not self.queued
-                ):  # the worker is busy, or idle for lack of jobs
+                # Wait while the worker is busy, or idle for lack of jobs.
+                while self.ended is None and (self.futures or not self.queued):
                     self.lock.wait()
+                if self.ended is not None:
+                    return
                 number = next(iter(self.queued))
                 future, job = self.queued.pop(number)
                 self.futures[number] = future
             try:
                 stdin.write(pickle.dumps((number, *job), protocol=pickle.HIGHEST_PROTOCOL))
                 stdin.flush()
-            except OSError:  # the worker ended; the reading thread fails the futures
+            except OSError:  # the worker ended
+                self._end()
                 return
 
     def _read(self) -> None:
@@ -177,15 +197,7 @@ class _Worker:
             try:
                 number, ok, value = pickle.load(stdout)
             except (EOFError, OSError, pickle.UnpicklingError):
-                error = RuntimeError(
-                    f"the merge search worker ended (exit status {self.process.poll()})"
-                )
-                with self.lock:
-                    failed = [*self.futures.values(), *(f for f, _ in self.queued.values())]
-                    self.futures.clear()
-                    self.queued.clear()
-                for future in failed:
-                    future.set_exception(error)
+                self._end()
                 return
             with self.lock:
                 future = self.futures.pop(number)
