@@ -235,3 +235,17 @@ def occupied_cells(cells: NDArray[np.int8]) -> NDArray[np.float64]:
     """``(N, 2)`` float array of the ``(x, y) = (col, row)`` coordinates of occupied cells."""
     rows, cols = np.nonzero(occupied_mask(cells))
     return np.column_stack([cols, rows]).astype(np.float64)
+
+
+def observed_part(cells: NDArray[np.int8]) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
+    """The smallest box of ``cells`` holding every observed cell, and its corner ``(x, y)``.
+
+    A grid with no observed cell is returned whole, at ``(0, 0)``.
+    """
+    known = cells >= 0
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if len(rows) == 0:
+        return cells, np.zeros(2)
+    box = cells[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    return box, np.array([cols[0], rows[0]], dtype=float)

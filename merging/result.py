@@ -60,8 +60,10 @@ class MergeResult:
         ``matching_wall_cells``, ``shared_open_cells``, ``strength``,
         ``margin`` and ``runner_up_distance_cells`` against the best
         different placement, the factors ``close_*`` and, when the close
-        fit fails, ``robust_*`` and ``tolerant_*``;
-        see :mod:`merging.verdict`).
+        fit fails, ``robust_*`` and ``tolerant_*``; for a placement a way
+        would vouch for, ``mirror_share`` and ``close_mirror`` or
+        ``tolerant_mirror_share`` and ``robust_mirror`` against map 2's
+        mirror image; see :mod:`merging.verdict` and :mod:`merging.mirror`).
     """
 
     matrix: NDArray[np.float64]

@@ -41,7 +41,9 @@ space (GMMs)              replace the Gaussian mixtures' means
 eqs. (27)-(30) Monte      each hypothesis is verified (:mod:`merging.verify`)
 Carlo objective           and the best refined by Gauss-Newton
                           (:mod:`merging.refine`), the stages of
-                          :data:`merging.params.DEFAULT_STAGES`
+                          :data:`merging.params.DEFAULT_STAGES`; the winner
+                          is held against map 2's mirror image
+                          (:mod:`merging.mirror`)
 eq. (31) matching index   :func:`merging.metrics.matching_index` (scoring only)
 ========================  ===============================================
 
@@ -63,6 +65,12 @@ Steps
    (a large overlap whose walls meet within a few cells and whose open space
    lies on open space), see :mod:`merging.verdict`; only confident results
    are accepted, and a refusal says why.
+6. Mirror check, for a placement step 5 would accept: steps 1-4 again for
+   map 2 seen in a mirror; if it explains the same overlap about as well,
+   the overlap looks the same in a mirror and may be either of two mirror
+   twins of a symmetric building, so the placement is refused
+   (:mod:`merging.mirror`). It costs about one more search, for accepted
+   placements only.
 
 Every setting is in :class:`~merging.params.TomographicParams`, passed as
 ``merging.estimate_transform(..., params=...)``.
@@ -80,13 +88,14 @@ from numpy.typing import NDArray
 from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
 from merging.api import register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
-from merging.grid import OccupancyGrid, validate_cells
+from merging.grid import OccupancyGrid, observed_part, validate_cells
 from merging.metrics import as_matrix
+from merging.mirror import MirrorCandidates, mirrored_part
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
 from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
 from merging.transforms import apply_transform, translation_matrix
-from merging.verdict import judge
+from merging.verdict import MirrorSearch, judge
 from merging.verify import PreparedMap, Verification, prepare_map, verify
 
 Candidate = tuple[Verification, NDArray[np.float64]]
@@ -103,15 +112,24 @@ class _Maps:
 
     __slots__ = ("first", "params", "second", "smoothed")
 
-    def __init__(self, first: PreparedMap, second: PreparedMap, params: TomographicParams):
+    def __init__(
+        self,
+        first: PreparedMap,
+        second: PreparedMap,
+        params: TomographicParams,
+        smoothed: SmoothedMap | None = None,
+    ):
+        """``smoothed``: map 1's fields, when another search has begun them."""
         self.first, self.second, self.params = first, second, params
         gauss_newton = params.gauss_newton
-        self.smoothed = SmoothedMap(
-            first.walls,
-            first.shape,
-            downsample_from_sigma=gauss_newton.downsample_from_sigma,
-            whole_field_share=gauss_newton.whole_field_share,
-        )
+        if smoothed is None:
+            smoothed = SmoothedMap(
+                first.walls,
+                first.shape,
+                downsample_from_sigma=gauss_newton.downsample_from_sigma,
+                whole_field_share=gauss_newton.whole_field_share,
+            )
+        self.smoothed = smoothed
 
     def verify(self, matrix: NDArray[np.float64]) -> Verification:
         return verify(self.first, self.second, matrix, params=self.params.verify)
@@ -281,20 +299,6 @@ def tomographic_merge(
     )
 
 
-def observed_part(cells: NDArray[np.int8]) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
-    """The smallest box of ``cells`` holding every observed cell, and its corner ``(x, y)``.
-
-    A grid with no observed cell is returned whole, at ``(0, 0)``.
-    """
-    known = cells >= 0
-    rows = np.flatnonzero(known.any(axis=1))
-    cols = np.flatnonzero(known.any(axis=0))
-    if len(rows) == 0:
-        return cells, np.zeros(2)
-    box = cells[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
-    return box, np.array([cols[0], rows[0]], dtype=float)
-
-
 def _merge_observed(
     cells1: NDArray[np.int8], cells2: NDArray[np.int8], params: TomographicParams
 ) -> MergeResult:
@@ -307,22 +311,7 @@ def _merge_observed(
     factor = coarse_factor(cells1.shape, cells2.shape, coarse_cells=params.translation.coarse_cells)
     timings["prepare"] = time.perf_counter() - clock
 
-    clock = time.perf_counter()
-    thetas, coarse1, coarse2 = _rotation_hypotheses(first, second, factor, params)
-    timings["rotation"] = time.perf_counter() - clock
-
-    clock = time.perf_counter()
-    candidates, correlation = _translation_hypotheses(coarse1, coarse2, thetas, params)
-    timings["translation"] = time.perf_counter() - clock
-
-    clock = time.perf_counter()
-    screened = _screened(maps, candidates, correlation)
-    timings["verify"] = time.perf_counter() - clock
-
-    clock = time.perf_counter()
-    pool = _refined(maps, screened, factor)
-    timings["refine"] = time.perf_counter() - clock
-
+    pool = _search(maps, factor, timings)
     best = pool[0][1]
     runner_up = next(
         (c for c in pool[1:] if _rms_between(c[1], best, second.points) > params.distinct_cells),
@@ -334,17 +323,81 @@ def _merge_observed(
     return _judged(maps, best, runner_up, hypotheses, timings)
 
 
+def _search(maps: _Maps, factor: int, timings: dict[str, float]) -> list[Candidate]:
+    """Steps 1-4: rotation and translation hypotheses, screened and refined; the winner first.
+
+    Adds the seconds of each step to ``timings``.
+    """
+    params = maps.params
+    clock = time.perf_counter()
+
+    def lap(step: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[step] = now - clock
+        clock = now
+
+    thetas, coarse1, coarse2 = _rotation_hypotheses(maps.first, maps.second, factor, params)
+    lap("rotation")
+    candidates, correlation = _translation_hypotheses(coarse1, coarse2, thetas, params)
+    lap("translation")
+    screened = _screened(maps, candidates, correlation)
+    lap("verify")
+    pool = _refined(maps, screened, factor)
+    lap("refine")
+    return pool
+
+
+def _mirror_search(
+    maps: _Maps, best: NDArray[np.float64], timings: dict[str, float]
+) -> MirrorSearch:
+    """A search for the mirror image of the evidence for ``best`` (:mod:`merging.mirror`).
+
+    Run when called: steps 1-4 for the part of map 2 that ``best`` lays on
+    map 1, seen in a mirror, on map 1 (whose fields the first search began).
+    Its seconds go to ``timings["mirror"]``.
+    """
+
+    def search() -> MirrorCandidates:
+        clock = time.perf_counter()
+        params = maps.params
+        # Keep every wall and clear cell the evidence inside the overlap is counted
+        # against, at the widest tolerance a way of vouching uses.
+        widest = max(
+            params.verify.near_radius, params.confidence.fit_tolerance, params.robust.tolerance
+        )
+        margin = params.verify.conflict_clearance + widest
+        part = mirrored_part(maps.first, maps.second, best, margin=margin, params=params.verify)
+        factor = coarse_factor(
+            maps.first.shape, part.mirrored.shape, coarse_cells=params.translation.coarse_cells
+        )
+        lighter = replace(params, stages=params.mirror_stages)
+        pool = _search(_Maps(maps.first, part.mirrored, lighter, maps.smoothed), factor, {})
+        found = MirrorCandidates(part, tuple(m for _, m in pool))
+        timings["mirror"] = time.perf_counter() - clock
+        return found
+
+    return search
+
+
 def _judged(
     maps: _Maps,
     best: NDArray[np.float64],
     runner_up: Candidate | None,
     hypotheses: tuple[Hypothesis, ...],
     timings: dict[str, float],
+    *,
+    mirror_check: bool = True,
 ) -> MergeResult:
-    """The result for ``best``: its confidence, the verdict and, when refused, why."""
+    """The result for ``best``: its confidence, the verdict and, when refused, why.
+
+    With ``mirror_check``, the verdict searches for the mirror image of the
+    evidence, for a placement it would otherwise accept.
+    """
     clock = time.perf_counter()
-    verdict = judge(maps.first, maps.second, maps.smoothed, best, runner_up, maps.params)
-    timings["judge"] = time.perf_counter() - clock
+    mirror = _mirror_search(maps, best, timings) if mirror_check else None
+    verdict = judge(maps.first, maps.second, maps.smoothed, best, runner_up, maps.params, mirror)
+    timings["judge"] = time.perf_counter() - clock - timings.get("mirror", 0.0)
     return MergeResult(
         matrix=best,
         confidence=verdict.confidence,
@@ -369,8 +422,11 @@ def refine_from(
     For a transform known to be within a few cells and a degree or so of the
     answer, such as the previous round's between two growing maps: the
     refinement of ``params.from_start`` and the confidence of the default
-    method, except distinctiveness (there is no runner-up without a
-    search). Much cheaper than :func:`tomographic_merge`.
+    method, except distinctiveness: against the best different placement
+    and against map 2's mirror image (step 6 of the module docstring), as
+    both need a search. The start must come from a search that held it
+    against both (as a tracked transform does: :mod:`merging.tracking`).
+    Much cheaper than :func:`tomographic_merge`.
 
     Parameters
     ----------
@@ -406,7 +462,7 @@ def refine_from(
     hypotheses = (
         Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
     )
-    result = _judged(maps, refined[1], None, hypotheses, timings)
+    result = _judged(maps, refined[1], None, hypotheses, timings, mirror_check=False)
     return replace(result, matrix=best)
 
 

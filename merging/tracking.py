@@ -5,8 +5,11 @@ same maps grown a little; the transform between their frames moves only by
 odometry drift. :func:`track_transform` therefore skips the global search of
 :mod:`merging.tomographic` and refines the previous transform, carried onto
 the maps' current cells, with :func:`merging.tomographic.refine_from` (the
-default method's refinement and confidence, without a runner-up). It keeps
-a transform from jumping between rounds and costs a fraction of a search.
+default method's refinement and confidence, without a runner-up or the
+search for map 2's mirror image: the global search the track began from held
+its transform against both, and a caller searches again every few rounds).
+It keeps a transform from jumping between rounds and costs a fraction of a
+search.
 
 With no runner-up to compare with, a tracked transform is also refused when
 the refinement moved it further than :data:`MAX_TRACK_ROTATION_DEG` or

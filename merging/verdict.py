@@ -11,19 +11,29 @@ Two ways to vouch, either is enough (the confidence is the larger):
   overlap whose walls meet within a few cells, whose open space lies on open
   space, and which no different placement comes near.
 
+A placement either way would vouch for is then held against map 2's mirror
+image (:mod:`merging.mirror`): if the mirrored map, laid on the same
+overlap, explains nearly as much, the shared part looks the same in a mirror
+and the placement cannot be told from the mirror twin of that part in a
+mirror-symmetric building, so it is refused. The mirrored map is searched
+for only then, since the search costs as much as the first.
+
 A refused result says why in words (:func:`refusal_reason`): too little
-overlap, ambiguous between two placements a given distance apart, only one
-wall or corridor to align on, walls that do not meet, or walls without
-shared open space. The numbers behind it are in ``MergeResult.evidence``.
+overlap, ambiguous between two placements a given distance apart or with the
+mirror image, only one wall or corridor to align on, walls that do not meet,
+or walls without shared open space. The numbers behind it are in
+``MergeResult.evidence``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from merging.mirror import MirrorCandidates, mirror_share
 from merging.params import TomographicParams
 from merging.refine import SmoothedMap, constraint_strength
 from merging.robust import open_cells, open_consistency, robust_confidence, tolerant_fit
@@ -32,6 +42,17 @@ from merging.verify import PreparedMap, Verification, confidence_factors, verify
 
 CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
 """Names of the five factors of :func:`merging.verify.confidence`, in its order."""
+
+MirrorSearch = Callable[[], MirrorCandidates]
+"""Finds the placements of map 2's overlap part, mirrored, on map 1's (for the placement
+being judged); called at most once, when needed."""
+
+MIRROR_REASON = (
+    "ambiguous: map 2 seen in a mirror fits map 1 about as well; what the maps share "
+    "looks the same in a mirror, so it may be either of two mirror-image parts of the "
+    "building"
+)
+"""Why a placement is refused when its evidence is as good for map 2's mirror image."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,16 +85,24 @@ def judge(
     best: NDArray[np.float64],
     runner_up: tuple[Verification, NDArray[np.float64]] | None,
     params: TomographicParams,
+    mirror: MirrorSearch | None = None,
 ) -> Verdict:
     """Judge ``best`` (map 2 cells -> map 1 cells) against the best different placement.
 
     ``runner_up`` is that placement and its verification, or None when the
-    search found no different one (or did not search).
+    search found no different one (or did not search). ``mirror``, when
+    given, finds map 2's mirrored placements; it is called only when a way
+    of vouching passes, and then that way must also beat the mirror image:
+    each by ``ConfidenceParams.mirror_margin`` of its evidence in its
+    overlap (:func:`merging.mirror.mirror_share`), counted as that way
+    counts it: the close fit at the tolerance it used, conflicts weighing
+    against; the robust evidence as walls met within its tolerance.
     """
     check = verify(first, second, best, params=params.verify)
     strength = constraint_strength(smoothed, second, best, local=True, params=params.gauss_newton)
     other = None if runner_up is None else runner_up[0]
     fit_quality = check.quality
+    fit_tolerance: int | None = None
     factors = confidence_factors(check, other, strength=strength, params=params.confidence)
     if (
         np.prod(factors) < params.confidence.accept
@@ -83,11 +112,13 @@ def judge(
         _, tolerant_quality = tolerant_fit(
             first, second, best, tolerance=params.confidence.fit_tolerance, params=params.verify
         )
-        fit_quality = max(fit_quality, tolerant_quality)
+        if tolerant_quality > fit_quality:
+            fit_quality, fit_tolerance = tolerant_quality, params.confidence.fit_tolerance
         factors = confidence_factors(
             check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
         )
     close = float(np.prod(factors))
+    twins = _Twins(mirror)
     evidence: dict[str, float] = {
         "agreement": check.agreement,
         "conflict": check.conflict,
@@ -105,16 +136,77 @@ def judge(
         evidence["runner_up_distance_cells"] = _rms_between(best, runner_up[1], second.points)
         turn = matrix_to_pose(best)[2] - matrix_to_pose(runner_up[1])[2]
         evidence["runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
+    accept = params.confidence.accept
+    vouched = close >= accept
+    if close >= accept and twins.available:
+        share = mirror_share(
+            first, second, best, twins.found(), tolerance=fit_tolerance, params=params.verify
+        )
+        chiral = _mirror_factor(share, params)
+        evidence.update({"mirror_share": share, "close_mirror": chiral})
+        close *= chiral
+        evidence["close_confidence"] = close
     robust = 0.0
     robust_factors: dict[str, float] = {}
-    if close < params.confidence.accept:
+    if close < accept:
         robust, robust_factors = _robust(first, second, smoothed, best, check, evidence, params)
+        vouched = vouched or robust >= accept
+        if robust >= accept and twins.available:
+            share = mirror_share(
+                first,
+                second,
+                best,
+                twins.found(),
+                tolerance=params.robust.tolerance,
+                conflict_weight=0.0,
+                params=params.verify,
+            )
+            evidence["tolerant_mirror_share"] = share
+            robust_factors["mirror"] = _mirror_factor(share, params)
+            robust = min(robust, robust_factors["mirror"])
         evidence["robust_confidence"] = robust
         evidence.update({f"robust_{name}": value for name, value in robust_factors.items()})
     value = max(close, robust)
-    accepted = value >= params.confidence.accept
-    reason = "" if accepted else refusal_reason(factors, robust_factors, evidence)
+    accepted = value >= accept
+    if accepted:
+        reason = ""
+    elif vouched:
+        # Either way vouched until held against the mirror image: that is why.
+        reason = MIRROR_REASON
+    else:
+        reason = refusal_reason(factors, robust_factors, evidence)
     return Verdict(value, accepted, reason, evidence)
+
+
+class _Twins:
+    """Map 2's mirrored placements, searched for at most once and only when asked."""
+
+    __slots__ = ("_found", "_search")
+
+    def __init__(self, search: MirrorSearch | None):
+        self._search = search
+        self._found: MirrorCandidates | None = None
+
+    @property
+    def available(self) -> bool:
+        return self._search is not None
+
+    def found(self) -> MirrorCandidates:
+        if self._found is None:
+            assert self._search is not None
+            self._found = self._search()
+        return self._found
+
+
+def _mirror_factor(share: float, params: TomographicParams) -> float:
+    """One half when the evidence map 2's mirror image leaves unexplained is the margin.
+
+    The logistic of ``1 - share`` centred at ``ConfidenceParams.mirror_margin``,
+    as wide as the distinctiveness factor's.
+    """
+    confidence = params.confidence
+    value = (1.0 - share) - confidence.mirror_margin
+    return float(1.0 / (1.0 + np.exp(-value / confidence.distinct_width)))
 
 
 def _robust(

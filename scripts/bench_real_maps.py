@@ -23,9 +23,10 @@ soon as it is known, and writing a Markdown report:
     Window pairs of four maps sharing 3-15 % of their area (the section 4.1
     protocol otherwise), right within 2 cells; what matters is that nothing
     wrong is accepted. Also side-by-side windows around the round hall of
-    ``aces3``, which is symmetric under a half turn: there the true overlap
-    holds almost no wall, and the windows turned by half a turn fit each other
-    exactly (reported apart, as the limit of what the maps can tell).
+    ``aces3``, which is symmetric under a half turn and across its corridors'
+    axes: there the true overlap holds almost no wall, and the windows turned
+    by half a turn fit each other exactly (reported apart: a merger must
+    refuse them, as what the windows share looks the same in a mirror).
 
 Methods by default: ``tomographic`` (the default merger), ``orb`` and ``sift``
 (scikit-image features + RANSAC), and ``ros_akaze`` and ``ros_orb`` (the ROS

@@ -74,6 +74,8 @@ def test_refine_from_a_nearby_start_verifies_and_accepts(building: np.ndarray) -
     result = refine_from(building, map2, start)
     assert result.accepted
     assert merging.transform_error(result.matrix, truth, map2)[0] < 0.5
+    # No search, so no search for the mirror image either: the start vouches for that.
+    assert "mirror" not in result.timings and "mirror_share" not in result.evidence
 
 
 GOOD = Verification(agreement=0.9, conflict=0.02, overlap=2000.0, agreeing=1800.0,

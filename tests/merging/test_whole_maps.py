@@ -14,6 +14,7 @@ from merging.resample import coarsen_cells, scale_matrix
 from merging.robust import open_consistency, robust_confidence, tolerant_fit
 from merging.tomographic import coarse_to_fine
 from merging.transforms import apply_transform, rigid_matrix
+from merging.verdict import MIRROR_REASON
 from merging.verify import prepare_map
 
 from .conftest import synthetic_building
@@ -80,6 +81,8 @@ def test_sessions_of_one_floor_are_merged(maps_folder, e5_truth, key: str) -> No
     )
     assert result.accepted
     assert result.evidence["robust_confidence"] >= 0.5 > result.evidence["close_confidence"]
+    # Held against map 2's mirror image too: a whole floor's walls are far from achiral.
+    assert result.evidence["tolerant_mirror_share"] < 0.7
 
 
 def test_two_sources_of_one_building_are_merged(maps_folder) -> None:
@@ -94,16 +97,31 @@ def test_two_sources_of_one_building_are_merged(maps_folder) -> None:
     assert np.sqrt(np.mean(np.sum((there_and_back - corners) ** 2, axis=1))) < 3.0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="aces3's round hall is symmetric under a half turn: the windows turned by half "
-    "a turn fit each other exactly, while their true overlap holds almost no wall, so "
-    "the maps alone cannot tell the placements apart",
-)
-def test_half_turn_of_the_round_hall_is_refused(maps_folder) -> None:
+ROUND_HALL_FLIPS = {
+    # name: (map 1's top row and left column, map 2's, window height and width)
+    "197 x 197 sharing 13 columns": ((751, 924), (754, 740), (197, 197)),
+    "291 x 247 sharing 13 columns": ((672, 640), (648, 874), (291, 247)),
+    "291 x 247 sharing 30 columns": ((672, 920), (648, 703), (291, 247)),
+}
+"""Windows side by side across aces3's round hall, each showing a corridor entering it."""
+
+
+@pytest.mark.parametrize("name", sorted(ROUND_HALL_FLIPS))
+def test_half_turns_of_the_round_hall_are_refused(maps_folder, name: str) -> None:
+    # Map 2 turned by half a turn fits map 1 wall for wall, while the true overlap
+    # holds almost no wall: the half turn is found, and refused because map 2 seen in
+    # a mirror fits the same part of map 1 as well (the hall is mirror-symmetric).
     aces = merging.load_map(maps_folder / "aces3.yaml").data
-    result = merging.estimate_transform(aces[751:948, 924:1121], aces[754:951, 740:937])
+    (top1, left1), (top2, left2), (height, width) = ROUND_HALL_FLIPS[name]
+    first = aces[top1 : top1 + height, left1 : left1 + width]
+    second = aces[top2 : top2 + height, left2 : left2 + width]
+    truth = rigid_matrix(float(left2 - left1), float(top2 - top1), 0.0)
+    result = merging.estimate_transform(first, second)
+    assert transform_error(result.matrix, truth, second)[0] > 100.0
+    assert abs(abs(np.degrees(result.rotation)) - 180.0) < 2.0
+    assert result.evidence["close_confidence"] < 0.5 <= result.evidence["close_fit"]
     assert not result.accepted
+    assert result.reason == MIRROR_REASON
 
 
 def test_refusals_say_why_in_words() -> None:
