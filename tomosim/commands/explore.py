@@ -1,8 +1,9 @@
 """``tomosim explore``: robots explore a world with periodic map merging, recorded for review.
 
-Runs one episode with the built-in frontier policy (:func:`tomosim.episode.run_episode`):
-three robots on the default generated floor plan, merging every 50 steps with
-the tomographic method, until the team knows 90 % of the free space. It shows a
+Runs one episode of frontier exploration (:func:`tomosim.episode.run_episode`):
+three robots on the default generated floor plan, coordinated by the default
+policy, merging every 50 steps with the tomographic method, until the team
+knows 90 % of the free space. It shows a
 progress bar, records the episode to an ``.rrd`` file, and ends with a summary:
 coverage, steps, and per pair the merges accepted and their errors against the
 simulator's truth (or JSON with ``--json``).
@@ -23,6 +24,7 @@ from merging.api import DEFAULT_METHOD
 from tomosim.commands import CommandError, UsageError, one_line
 from tomosim.commands.explore_report import render_summary
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
+from tomosim.exploration import chooser_names
 
 NAME = "explore"
 """The subcommand's name."""
@@ -44,6 +46,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--robots", type=int, default=DEFAULTS.robots, help=f"default {DEFAULTS.robots}"
+    )
+    parser.add_argument(
+        "--policy",
+        default=DEFAULTS.policy,
+        help=f"how robots choose frontiers: {', '.join(chooser_names())} "
+        f"(default {DEFAULTS.policy})",
     )
     parser.add_argument(
         "--steps",
@@ -96,6 +104,9 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
     if args.method not in available_methods():
         choices = ", ".join(available_methods())
         raise UsageError(f"unknown method {args.method!r}; choose one of: {choices}")
+    if args.policy not in chooser_names():
+        choices = ", ".join(chooser_names())
+        raise UsageError(f"unknown policy {args.policy!r}; choose one of: {choices}")
     if args.record.suffix != ".rrd":
         raise UsageError(f"--record must name an .rrd file, got {args.record}")
     world: int | Path = int(args.world) if args.world.strip().isdigit() else Path(args.world)
@@ -104,6 +115,7 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
     return EpisodeConfig(
         world=world,
         robots=args.robots,
+        policy=args.policy,
         steps=args.steps,
         merge=not args.no_merge,
         merge_interval=args.merge_interval,

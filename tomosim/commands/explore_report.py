@@ -90,9 +90,14 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         f"merging every {s['merge_interval']} steps ({s['method']})" if s["merge"] else "no merging"
     )
     target = metrics.steps_to(float(s["coverage_target"]))
-    reached = "not reached" if target is None else f"reached at step {target}"
+    reached = (
+        "not reached"
+        if target is None
+        else f"reached at step {target}, {target * metrics.dt:.1f} s"
+    )
+    policy = f"{s['policy']} policy, " if "policy" in s else ""
     lines = [
-        f"world {s['world']}, {s['robots']} robots, {merging}, seed {s['seed']}",
+        f"world {s['world']}, {s['robots']} robots, {policy}{merging}, seed {s['seed']}",
         "",
         f"{'steps':<18}{metrics.steps} ({metrics.sim_seconds:.1f} s simulated, "
         f"{metrics.wall_seconds:.1f} s wall clock)",
@@ -100,6 +105,13 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         f"{'team coverage':<18}{metrics.coverage:.3f} "
         f"(target {s['coverage_target']:.2f} {reached})",
     ]
+    if metrics.path_lengths:
+        each = ", ".join(f"r{k} {p:.1f}" for k, p in enumerate(metrics.path_lengths))
+        own = ", ".join(f"r{k} {c:.2f}" for k, c in enumerate(metrics.robot_coverage))
+        lines += [
+            f"{'path length':<18}{metrics.path_length:.1f} m ({each})",
+            f"{'own coverage':<18}{own}; overlap rate {metrics.overlap_rate:.2f}",
+        ]
     if metrics.merges:
         rows = episode_rows(metrics)
         accepted = sum(1 for row in rows if row[1])

@@ -1,7 +1,8 @@
 """``tomosim sweep``: many seeded episodes over a grid of worlds, team sizes and methods.
 
-Every combination of ``--worlds``, ``--robots``, ``--methods`` and ``--seeds``
-is one episode of the built-in exploration (as ``tomosim explore`` runs it).
+Every combination of ``--worlds``, ``--robots``, ``--policies``, ``--methods``
+and ``--seeds`` is one episode of the built-in exploration (as ``tomosim
+explore`` runs it).
 Episodes run on a local process pool (``--executor process``, the default) or
 on Ray (``--executor ray``, ``pip install "tomosim[ray]"``; ``--ray-address``
 joins a running cluster, otherwise a local Ray is started). Each finished
@@ -19,6 +20,7 @@ from typing import Any
 from tqdm import tqdm
 
 from tomosim.commands import CommandError, UsageError, one_line
+from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE, SweepPlan, run_sweep
 
 NAME = "sweep"
@@ -35,6 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="generated floor-plan seeds and/or map_server YAML files (default: 0)",
     )  # fmt: skip
     parser.add_argument("--robots", nargs="+", type=int, default=list(plan.robots))
+    parser.add_argument(
+        "--policies", nargs="+", default=list(plan.policies), metavar="POLICY",
+        help=f"exploration policies: {', '.join(chooser_names())} (default: {DEFAULT_POLICY})",
+    )  # fmt: skip
     parser.add_argument(
         "--methods", nargs="+", default=list(plan.methods),
         help=f"merging methods, '{NO_MERGE}' for merging off (default: tomographic)",
@@ -65,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
         plan = SweepPlan(
             worlds=tuple(args.worlds),
             robots=tuple(args.robots),
+            policies=tuple(args.policies),
             methods=tuple(args.methods),
             seeds=tuple(args.seeds),
             steps=args.steps,

@@ -14,6 +14,7 @@ import numpy as np
 
 from merging import available_methods
 from merging.api import DEFAULT_METHOD
+from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.simulation import SimulationConfig
 from tomosim.worlds import World, generate_floorplan, world_from_map
 
@@ -67,6 +68,9 @@ class EpisodeConfig:
         Width and height in metres of a generated floor plan (None: 30 x 20).
     robots : int
         Number of robots.
+    policy : str
+        Exploration policy: how robots choose frontiers
+        (:func:`~tomosim.exploration.chooser_names`).
     steps : int
         Most steps to run (0.1 s of simulated time each).
     merge : bool
@@ -88,6 +92,7 @@ class EpisodeConfig:
     world: int | str | Path = DEFAULT_WORLD_SEED
     world_size: tuple[float, float] | None = None
     robots: int = 3
+    policy: str = DEFAULT_POLICY
     steps: int = 1500
     merge: bool = True
     merge_interval: int = 50
@@ -108,6 +113,11 @@ class EpisodeConfig:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
         if not (0.0 < self.coverage_target <= 1.0):
             raise ValueError(f"coverage_target must be in (0, 1], got {self.coverage_target}")
+        if self.policy not in chooser_names():
+            choices = ", ".join(chooser_names())
+            raise ValueError(
+                f"unknown exploration policy {self.policy!r}; choose one of: {choices}"
+            )
         if self.method not in available_methods():
             choices = ", ".join(available_methods())
             raise ValueError(f"unknown merging method {self.method!r}; choose one of: {choices}")
@@ -118,6 +128,7 @@ class EpisodeConfig:
             "world": world.name,
             "world_spec": str(self.world),
             "robots": int(self.robots),
+            "policy": self.policy,
             "steps": int(self.steps),
             "merge": bool(self.merge),
             "merge_interval": int(self.merge_interval),

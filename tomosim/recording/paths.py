@@ -17,6 +17,9 @@
     merge/agreement, merge/accepted    per merge round
     merge/log                          one line per merge round
     team/coverage                      every step
+    team/robot_coverage/r0             robot 0's own grid's coverage, every step
+    team/path_length/r0, .../total     metres travelled by robot 0 and the team, every step
+    team/overlap_rate                  sum of the robots' coverages over the team's, less one
 
 Time is the ``step`` sequence timeline (one tick per simulation step) and the
 ``sim_time`` duration timeline (simulated seconds).
@@ -41,6 +44,8 @@ AGREEMENT = "merge/agreement"
 ACCEPTED = "merge/accepted"
 MERGE_LOG = "merge/log"
 COVERAGE = "team/coverage"
+OVERLAP_RATE = "team/overlap_rate"
+PATH_LENGTH_TOTAL = "team/path_length/total"
 
 PAIR_QUANTITIES = (
     "confidence",
@@ -85,6 +90,16 @@ def trail_path(robot: int) -> str:
 def map_path(robot: int) -> str:
     """``maps/r0``: the robot's own grid."""
     return f"maps/{robot_name(robot)}"
+
+
+def robot_coverage_path(robot: int) -> str:
+    """``team/robot_coverage/r0``: the coverage of the robot's own grid."""
+    return f"team/robot_coverage/{robot_name(robot)}"
+
+
+def path_length_path(robot: int) -> str:
+    """``team/path_length/r0``: metres the robot travelled."""
+    return f"team/path_length/{robot_name(robot)}"
 
 
 def pair_path(pair: str, quantity: str) -> str:

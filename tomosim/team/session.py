@@ -184,6 +184,11 @@ class TeamSession:
         """``(N, 2)`` estimated positions, each in its robot's map frame."""
         return self.simulation.odometry_poses[:, :2]
 
+    def contacts(self, robot: int) -> dict[int, NDArray[np.float64]]:
+        """The teammates robot ``robot`` coordinates with, each with the matrix taking its
+        map frame to robot ``robot``'s (metres): those its map is linked to by merges."""
+        return self.shared.links(robot)
+
     def linked(self, robot: int) -> bool:
         """Whether robot ``robot``'s best map includes teammates' maps."""
         return bool(self.shared.teammates(robot))

@@ -229,6 +229,11 @@ class SharedMaps:
         """Robots whose maps robot ``robot`` sees in its best map."""
         return tuple(sorted(self._links[robot]))
 
+    def links(self, robot: int) -> dict[int, NDArray[np.float64]]:
+        """Per teammate robot ``robot`` is linked to, the matrix taking the teammate's map
+        frame to robot ``robot``'s (metres); a new dict each call."""
+        return {other: matrix.copy() for other, matrix in self._links[robot].items()}
+
     def refresh(self, step: int, grids: Sequence[OccupancyGrid]) -> None:
         """Rebuild the teammate layers that are due at ``step`` from the current ``grids``."""
         for robot in range(self.count):
