@@ -77,12 +77,15 @@ the free space; ``teammates``: the agents whose maps this robot sees;
 round (empty before the first) with ``step``, ``method``, ``agreement`` (the
 merged map's acceptance index against the ground truth, placed by its
 reference robot's true start pose), ``accepted`` (number of accepted pair
-estimates), ``merged_robots``, and ``pairs``: per pair ``"r0-r1"``, the
-estimated and true pose of robot 1's map frame in robot 0's (``estimate``,
+estimates), ``merged_robots`` (agent ids), and ``pairs``: per pair of agents
+``"robot_0-robot_1"``, the estimated and true pose of robot 1's map frame in
+robot 0's (``estimate``,
 ``truth``: x, y metres, yaw radians), ``rotation_error_deg``,
 ``translation_error_m`` (``inf`` without an estimate), ``matching_index``
-(eq. 31 of the paper), ``confidence``, ``accepted``, ``confirmed``, ``used``
-and the merger's ``reason``.
+(eq. 31 of the paper), ``confidence``, ``accepted``, ``confirmed``, ``used``,
+``dropped`` (confirmed but contradicting the other links) and the merger's
+``reason``. Reports and recordings of tomosim call the same robots ``r0``,
+``r1``, ... (:func:`tomosim.team.robot_name`).
 
 Arguments
 ---------
@@ -281,7 +284,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
     def _infos(self, *, merged_now: bool) -> dict[str, dict[str, Any]]:
         session = self.session
         assert session is not None  # reset() made it
-        merge = session.last_merge
+        scored = session.last_quality
         infos = {}
         for k, agent in enumerate(self.possible_agents):
             if agent not in self.agents:
@@ -292,7 +295,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 "coverage": session.coverage.robot_fraction(k),
                 "teammates": [agent_name(t) for t in session.shared.teammates(k)],
                 "merged_now": merged_now,
-                "merge": {} if merge is None else merge.as_dict(),
+                "merge": {} if scored is None else scored.as_dict(name=agent_name),
             }
         return infos
 

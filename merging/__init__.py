@@ -8,7 +8,7 @@ environments.
 >>> result.matrix, result.confidence, result.accepted  # doctest: +SKIP
 """
 
-from merging.api import available_methods, estimate_transform, register_method
+from merging.api import available_methods, check_method, estimate_transform, register_method
 from merging.fusion import FusedMap, fuse, merge
 from merging.grid import (
     FREE_THRESHOLD,
@@ -16,7 +16,7 @@ from merging.grid import (
     OccupancyGrid,
     validate_cells,
 )
-from merging.linking import MergeAllResult, merge_all
+from merging.linking import Linking, MergeAllResult, link_maps, merge_all
 from merging.mapio import load_map, save_map
 from merging.metrics import acceptance_index, matching_index, transform_error
 from merging.result import Hypothesis, MergeResult
@@ -27,14 +27,17 @@ __all__ = [
     "OCCUPIED_THRESHOLD",
     "FusedMap",
     "Hypothesis",
+    "Linking",
     "MergeAllResult",
     "MergeResult",
     "OccupancyGrid",
     "acceptance_index",
     "available_methods",
     "cells_to_metres",
+    "check_method",
     "estimate_transform",
     "fuse",
+    "link_maps",
     "load_map",
     "matching_index",
     "matrix_to_pose",

@@ -60,6 +60,19 @@ def available_methods() -> tuple[str, ...]:
     return tuple(sorted(_METHODS))
 
 
+def check_method(method: object) -> str:
+    """Return ``method`` if it names a registered method, else raise ValueError listing them.
+
+    The one place a method name is checked; every public entry point that
+    takes one calls it before doing any work.
+    """
+    if not isinstance(method, str) or method not in _METHODS:
+        raise ValueError(
+            f"unknown merging method {method!r}; choose one of: {', '.join(available_methods())}"
+        )
+    return method
+
+
 def estimate_transform(
     map1: OccupancyGrid | NDArray[Any],
     map2: OccupancyGrid | NDArray[Any],
@@ -105,8 +118,7 @@ def estimate_transform(
     start = time.perf_counter()
     cells1 = validate_cells(map1, name="map1")
     cells2 = validate_cells(map2, name="map2")
-    if method not in _METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {available_methods()}")
+    check_method(method)
     both_grids = isinstance(map1, OccupancyGrid) and isinstance(map2, OccupancyGrid)
     if both_grids and not np.isclose(map1.resolution, map2.resolution):  # type: ignore[union-attr]
         raise ValueError(

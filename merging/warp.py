@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from merging.grid import UNKNOWN
 
@@ -21,14 +22,22 @@ def warp_cells(
     the output's. Each output cell takes the value of the input cell nearest to
     its pre-image (nearest neighbour keeps the ROS coding exact); output cells
     whose pre-image falls off the input get ``fill``.
+
+    The work is :func:`scipy.ndimage.affine_transform` of order 0, which
+    indexes ``(row, col)``: the inverse matrix is handed over with its axes
+    swapped.
     """
-    rows_out, cols_out = shape
     inverse = np.linalg.inv(np.asarray(matrix, dtype=float))
-    ys, xs = np.mgrid[0:rows_out, 0:cols_out]
-    src_x = np.rint(inverse[0, 0] * xs + inverse[0, 1] * ys + inverse[0, 2]).astype(np.intp)
-    src_y = np.rint(inverse[1, 0] * xs + inverse[1, 1] * ys + inverse[1, 2]).astype(np.intp)
-    rows_in, cols_in = cells.shape
-    inside = (src_x >= 0) & (src_x < cols_in) & (src_y >= 0) & (src_y < rows_in)
-    out = np.full(shape, fill, dtype=np.int8)
-    out[inside] = cells[src_y[inside], src_x[inside]]
-    return out
+    # ndimage maps an output index (row, col) to the input index M @ (row, col) + offset.
+    swapped = np.array([[inverse[1, 1], inverse[1, 0]], [inverse[0, 1], inverse[0, 0]]])
+    offset = np.array([inverse[1, 2], inverse[0, 2]])
+    return ndimage.affine_transform(
+        np.asarray(cells, dtype=np.int8),
+        swapped,
+        offset=offset,
+        output_shape=tuple(int(n) for n in shape),
+        order=0,
+        mode="grid-constant",
+        cval=fill,
+        prefilter=False,
+    )

@@ -14,13 +14,37 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
+from merging.transforms import matrix_to_pose, rigid_matrix
 
 
 def pose_matrix(pose: ArrayLike) -> NDArray[np.float64]:
-    """3x3 rigid matrix of ``pose = (x, y, theta)`` (metres, radians)."""
+    """3x3 rigid matrix of ``pose = (x, y, theta)`` (metres, radians).
+
+    The same matrix as :func:`merging.rigid_matrix` (eq. 1 of the paper), taking
+    the pose as one array.
+    """
     x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
+    return rigid_matrix(x, y, theta)
+
+
+def frame_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[float, float]:
+    """``(rotation_deg, translation_m)`` between two transforms of one frame (metres).
+
+    Both are 3x3 rigid matrices taking one frame B to another frame A: the
+    rotation error is ``|wrap(yaw_est - yaw_true)|`` in degrees, in
+    ``[0, 180]``; the translation error is the distance between where the two
+    put B's origin in A, in metres. Returns ``(inf, inf)`` when ``estimate``
+    is not a finite 3x3 matrix.
+    """
+    est = np.asarray(estimate, dtype=float)
+    ref = np.asarray(truth, dtype=float)
+    if ref.shape != (3, 3) or not np.all(np.isfinite(ref)):
+        raise ValueError(f"truth must be a finite 3x3 matrix, got shape {ref.shape}")
+    if est.shape != (3, 3) or not np.all(np.isfinite(est)):
+        return math.inf, math.inf
+    turn = math.remainder(matrix_to_pose(est)[2] - matrix_to_pose(ref)[2], 2 * math.pi)
+    shift = float(np.hypot(*(est[:2, 2] - ref[:2, 2])))
+    return abs(math.degrees(turn)), shift
 
 
 def place_grid(grid: OccupancyGrid, frame_from_grid: ArrayLike) -> OccupancyGrid:

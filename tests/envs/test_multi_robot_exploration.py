@@ -145,7 +145,8 @@ def test_merge_infos_carry_truth_errors_and_unused_merges_change_nothing() -> No
         *_, infos = env.step({a: np.array([0.3, 0.5], np.float32) for a in env.agents})
     info = infos["robot_0"]
     assert info["merged_now"] and info["merge"]["step"] == 5
-    pair = info["merge"]["pairs"]["r0-r1"]
+    pair = info["merge"]["pairs"]["robot_0-robot_1"]
+    assert info["merge"]["merged_robots"] == ["robot_0"]  # nothing linked yet
     for key in ("rotation_error_deg", "translation_error_m", "matching_index", "confidence"):
         assert isinstance(pair[key], float)
     assert isinstance(pair["accepted"], bool) and len(pair["truth"]) == 3

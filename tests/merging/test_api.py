@@ -37,7 +37,7 @@ def test_invalid_input_raises_a_named_error(bad, error, message) -> None:
 
 def test_unknown_method_is_named() -> None:
     grid = np.zeros((5, 5), dtype=np.int8)
-    with pytest.raises(ValueError, match="unknown method 'nope'"):
+    with pytest.raises(ValueError, match="unknown merging method 'nope'"):
         merging.estimate_transform(grid, grid, method="nope")
 
 

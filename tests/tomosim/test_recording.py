@@ -124,10 +124,10 @@ def test_grids_read_back_equal_what_was_logged(
     assert truth.resolution == session.world.truth.resolution
     step, merged = run.grids[MERGED]
     assert step == merges[-1].step
-    expected = crop_to_known(merges[-1].merged)
+    expected = crop_to_known(merges[-1].merge.merged)
     np.testing.assert_array_equal(merged.data, expected.data)
     np.testing.assert_allclose(merged.origin, expected.origin, atol=1e-6)
-    start = session.simulation.start_poses[merges[-1].reference]
+    start = session.simulation.start_poses[merges[-1].merge.reference]
     np.testing.assert_allclose(run.poses[MERGED], start, atol=1e-6)
 
 

@@ -19,6 +19,7 @@ from tomosim.team import (
     TeamMerger,
     TeamSession,
     frame_errors,
+    score_round,
     teammate_layer,
     true_relative,
 )
@@ -102,8 +103,9 @@ def test_merge_round_scores_views_of_the_truth(world: World) -> None:
     starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2]])
     grids = [robot_view(world, start) for start in starts]
     merger = TeamMerger(interval=1, confirmations=1, rng=0)
-    merge = merger.merge(1, grids, starts=starts, truth=world.truth)
-    (pair,) = merge.pairs
+    merge = merger.merge(1, grids)
+    scored = score_round(merge, grids, starts, world.truth)
+    (pair,) = scored.pairs
     assert pair.accepted and pair.confirmed and pair.used
     assert pair.rotation_error_deg < MERGE_ROTATION_DEG
     assert pair.translation_error_m < MERGE_TRANSLATION_M
@@ -112,18 +114,40 @@ def test_merge_round_scores_views_of_the_truth(world: World) -> None:
     relative = merge.relative(0, 1)
     assert relative is not None
     assert frame_errors(relative, true_relative(*starts))[0] < MERGE_ROTATION_DEG
-    assert merge.agreement > 0.95
+    assert scored.agreement > 0.95
 
 
 def test_unconfirmed_estimates_do_not_link_maps(world: World) -> None:
     starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2]])
     grids = [robot_view(world, start) for start in starts]
     merger = TeamMerger(interval=1, confirmations=2, rng=0)
-    first = merger.merge(1, grids, starts=starts, truth=world.truth)
+    first = merger.merge(1, grids)
     assert first.pairs[0].accepted and not first.pairs[0].confirmed
     assert not first.linked(0) and first.relative(0, 1) is None
-    second = merger.merge(2, grids, starts=starts, truth=world.truth)
+    second = merger.merge(2, grids)
     assert second.pairs[0].confirmed and second.linked(1)
+
+
+def test_a_pair_estimator_replaces_the_merging_method(world: World) -> None:
+    """The hook sees each pair once as (i, j), i < j, and its answers link the maps."""
+    starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2], [6.0, 5.0, 1.0]])
+    grids = [robot_view(world, start) for start in starts]
+    asked = []
+
+    def truth_estimator(i: int, j: int, first: OccupancyGrid, second: OccupancyGrid):
+        asked.append((i, j))
+        metres = true_relative(starts[i], starts[j])
+        cells = np.linalg.inv(first.cell_to_world_matrix()) @ metres @ second.cell_to_world_matrix()
+        return MergeResult(cells, 1.0, True, "truth", metres)
+
+    merger = TeamMerger(method="truth", confirmations=1, estimator=truth_estimator)
+    merge = merger.merge(1, grids)
+    assert asked == [(0, 1), (0, 2), (1, 2)]
+    assert merge.merged_robots == (0, 1, 2) and len(merge.linking.tree) == 2
+    for k in (1, 2):
+        relative = merge.relative(0, k)
+        assert relative is not None
+        np.testing.assert_allclose(relative, true_relative(starts[0], starts[k]), atol=EXACT)
 
 
 def lattice_grid(

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from merging import available_methods
+from merging import check_method
 from merging.api import DEFAULT_METHOD
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.simulation import SimulationConfig
@@ -118,9 +118,7 @@ class EpisodeConfig:
             raise ValueError(
                 f"unknown exploration policy {self.policy!r}; choose one of: {choices}"
             )
-        if self.method not in available_methods():
-            choices = ", ".join(available_methods())
-            raise ValueError(f"unknown merging method {self.method!r}; choose one of: {choices}")
+        check_method(self.method)
 
     def settings(self, world: World) -> dict[str, Any]:
         """Plain values describing the episode (recorded with it and printed in reports)."""

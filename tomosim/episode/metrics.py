@@ -18,14 +18,14 @@ import numpy as np
 
 from tomosim.episode.tracking import overlap_rate
 from tomosim.frames import pose_matrix
-from tomosim.team.merger import TeamMerge
-from tomosim.team.quality import PairQuality
+from tomosim.team.quality import PairQuality, RoundQuality
 from tomosim.team.session import TeamSession
 
 
 @dataclass(frozen=True, slots=True)
 class MergeRound:
-    """The figures of one merge round (a :class:`~tomosim.team.TeamMerge` without its map).
+    """The figures of one scored merge round (a :class:`~tomosim.team.RoundQuality` without
+    its map).
 
     ``drift`` holds, per robot, the error of its pose estimate when the round
     ran (heading in degrees, position in metres; :func:`odometry_drift`): the
@@ -41,14 +41,14 @@ class MergeRound:
     drift: tuple[tuple[float, float], ...] = ()
 
     @classmethod
-    def of(cls, merge: TeamMerge, session: TeamSession) -> MergeRound:
-        """The figures of ``merge``, run in ``session`` at its current step."""
+    def of(cls, scored: RoundQuality, session: TeamSession) -> MergeRound:
+        """The figures of the round ``scored``, run in ``session`` at its current step."""
         return cls(
-            merge.step,
-            merge.pairs,
-            merge.merged_robots,
-            merge.agreement,
-            merge.seconds,
+            scored.step,
+            scored.pairs,
+            scored.merged_robots,
+            scored.agreement,
+            scored.merge.seconds,
             odometry_drift(session),
         )
 

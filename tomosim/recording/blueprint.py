@@ -12,7 +12,7 @@ from __future__ import annotations
 import rerun.blueprint as rrb
 
 from tomosim.recording.paths import AGREEMENT, COVERAGE, MERGED, map_path
-from tomosim.team.quality import robot_name
+from tomosim.team.merger import robot_name
 
 EYE_HEIGHT_FACTOR = 1.2
 """Height of the initial top-down eye above the world, in multiples of the world's

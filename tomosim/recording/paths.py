@@ -27,7 +27,7 @@ Time is the ``step`` sequence timeline (one tick per simulation step) and the
 
 from __future__ import annotations
 
-from tomosim.team.quality import robot_name
+from tomosim.team.merger import robot_name
 
 APPLICATION_ID = "tomosim"
 """Application id of every tomosim recording."""

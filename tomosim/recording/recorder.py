@@ -62,7 +62,7 @@ from tomosim.recording.paths import (
     robot_path,
     trail_path,
 )
-from tomosim.team.merger import TeamMerge
+from tomosim.team.quality import RoundQuality
 from tomosim.team.session import TeamSession
 from tomosim.team.sharing import known_box
 
@@ -213,7 +213,7 @@ class Recorder:
             log(map_path(k), pose_transform(start), static=True)
         self.log_step(session, None)
 
-    def log_step(self, session: TeamSession, merge: TeamMerge | None) -> None:
+    def log_step(self, session: TeamSession, merge: RoundQuality | None) -> None:
         """One step: poses, scans, coverage, changed maps and the merge round, if any."""
         self._set_time(session)
         log = self.stream.log
@@ -267,7 +267,7 @@ class Recorder:
                 rr.LineStrips3D([self._trails.get(k, [])], colors=[robot_colour(k)]),
             )
 
-    def log_merge(self, session: TeamSession, merge: TeamMerge) -> None:
+    def log_merge(self, session: TeamSession, merge: RoundQuality) -> None:
         """One merge round's quality figures and merged map, at the current time."""
         log = self.stream.log
         for pair in merge.pairs:
@@ -285,10 +285,12 @@ class Recorder:
                 log(pair_path(pair.name, quantity), rr.Scalars(value))
         log(AGREEMENT, rr.Scalars(merge.agreement))
         log(ACCEPTED, rr.Scalars(float(len(merge.accepted))))
-        start = session.simulation.start_poses[merge.reference]
+        start = session.simulation.start_poses[merge.merge.reference]
         log(MERGED, pose_transform(start))
         merged = grid_map(
-            crop_to_known(merge.merged), draw_order=DRAW_ORDER["merged"], opacity=MERGED_OPACITY
+            crop_to_known(merge.merge.merged),
+            draw_order=DRAW_ORDER["merged"],
+            opacity=MERGED_OPACITY,
         )
         log(MERGED, merged)
         log(MERGE_LOG, rr.TextLog(merge_line(merge), level="INFO"))
@@ -299,7 +301,7 @@ class Recorder:
         self._log_maps(session, force=True)
 
 
-def merge_line(merge: TeamMerge) -> str:
+def merge_line(merge: RoundQuality) -> str:
     """One line describing a merge round (for the recording's text log)."""
     parts = []
     for pair in merge.pairs:

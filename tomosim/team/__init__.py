@@ -7,21 +7,32 @@
 (3, 0)
 """
 
+from tomosim.frames import frame_errors
 from tomosim.team.coverage import TeamCoverage
-from tomosim.team.merger import TeamMerge, TeamMerger
+from tomosim.team.merger import (
+    PairEstimator,
+    PairOutcome,
+    TeamMerge,
+    TeamMerger,
+    pair_name,
+    robot_name,
+)
 from tomosim.team.quality import (
     PairQuality,
-    frame_errors,
+    RoundQuality,
     merged_agreement,
     pair_quality,
-    robot_name,
+    score_round,
     true_relative,
 )
 from tomosim.team.session import TeamConfig, TeamSession
 from tomosim.team.sharing import SharedMaps, grid_anchor, teammate_layer
 
 __all__ = [
+    "PairEstimator",
+    "PairOutcome",
     "PairQuality",
+    "RoundQuality",
     "SharedMaps",
     "TeamConfig",
     "TeamCoverage",
@@ -31,8 +42,10 @@ __all__ = [
     "frame_errors",
     "grid_anchor",
     "merged_agreement",
+    "pair_name",
     "pair_quality",
     "robot_name",
+    "score_round",
     "teammate_layer",
     "true_relative",
 ]

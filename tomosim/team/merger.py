@@ -1,9 +1,9 @@
-"""Periodic team merging: every robot's grid merged with :func:`merging.merge_all`.
+"""Periodic team merging: every robot's grid linked to its teammates' from the grids alone.
 
 A merge round
 
-1. estimates the transform of every pair of the robots' current grids
-   (:func:`merging.estimate_transform`);
+1. estimates the transform of every pair of the robots' current grids, with
+   :func:`merging.estimate_transform` or with the :data:`PairEstimator` given;
 2. counts an estimate as *confirmed* when the merger accepted it in
    ``confirmations`` consecutive rounds with consistent transforms (within
    :data:`CONFIRM_ROTATION_DEG` and :data:`CONFIRM_TRANSLATION_M`); an
@@ -11,33 +11,30 @@ A merge round
    is not used yet: a single wrong match, which would make a robot plan
    through walls, rarely repeats itself in the next round, which sees more
    of both maps;
-3. links the maps by the maximum spanning forest of confirmed pairs and fuses
-   the reference's group (:func:`merging.merge_all`);
-4. composes, along the forest, each robot's map frame into the frame of its
-   linked group's lowest-index robot (metres), so that any robot can see its
-   teammates' grids in its own frame (:mod:`tomosim.team.sharing`);
-5. scores every pair against the truth (:mod:`tomosim.team.quality`) and the
-   merged map against the ground truth (:func:`merged_agreement`).
+3. links the maps through the confirmed pairs (:func:`merging.link_maps`):
+   a consistent spanning forest, each robot's frame placed in its group's
+   root robot's frame;
+4. fuses the main group (:func:`merging.linking.fuse_group`).
 
-Only step 5 uses the true start poses; steps 1-4 see the grids alone.
+A round sees the grids alone, never the truth: scoring it against the true
+start poses is :func:`tomosim.team.quality.score_round`'s job.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from merging import available_methods, estimate_transform, merge_all
+from merging import check_method, estimate_transform, link_maps
 from merging.api import DEFAULT_METHOD
 from merging.grid import OccupancyGrid
-from merging.linking import MergeAllResult
+from merging.linking import Linking, fuse_group
 from merging.result import MergeResult
-from tomosim.team.quality import PairQuality, frame_errors, merged_agreement, pair_quality
+from tomosim.frames import frame_errors
 from tomosim.worlds.world import RngLike, as_generator
 
 CONFIRM_ROTATION_DEG = 3.0
@@ -48,10 +45,67 @@ CONFIRM_TRANSLATION_M = 0.5
 """Metres two rounds' estimates may differ by (where each puts the second
 robot's start position) and still confirm each other; same reasoning."""
 
+PairEstimator = Callable[[int, int, OccupancyGrid, OccupancyGrid], MergeResult]
+"""``estimator(i, j, grid_i, grid_j) -> MergeResult`` for robots ``i < j``: its matrix
+takes grid ``j``'s cells to grid ``i``'s and its ``matrix_metres`` frame ``j`` to
+frame ``i``."""
+
+
+def robot_name(index: int) -> str:
+    """Short name of robot ``index`` in reports, infos and recordings: ``"r0"``, ``"r1"``, ...
+
+    The PettingZoo environment calls the same robot's agent ``robot_0``
+    (``envs.multi_robot_exploration_v0.agent_name``); infos key pairs by these
+    short names (``"r0-r1"``).
+    """
+    return f"r{index}"
+
+
+def pair_name(first: int, second: int) -> str:
+    """``"r0-r1"``: a pair's name in reports, infos and recordings."""
+    return f"{robot_name(first)}-{robot_name(second)}"
+
+
+@dataclass(frozen=True, slots=True)
+class PairOutcome:
+    """One pair's estimate in a merge round, as the merger saw it.
+
+    Attributes
+    ----------
+    first, second : int
+        Robots ``i < j``; the estimate takes ``second``'s map to ``first``'s.
+    result : MergeResult
+        The estimate as the merging method returned it.
+    confirmed : bool
+        Accepted in enough consecutive rounds with consistent estimates
+        (module docstring, step 2); only confirmed estimates link maps.
+    used : bool
+        The estimate is an edge of the spanning forest that links the maps.
+    dropped : bool
+        Confirmed, but left out because it contradicts the other links.
+    """
+
+    first: int
+    second: int
+    result: MergeResult
+    confirmed: bool
+    used: bool
+    dropped: bool = False
+
+    @property
+    def name(self) -> str:
+        """``"r0-r1"``."""
+        return pair_name(self.first, self.second)
+
+    @property
+    def accepted(self) -> bool:
+        """The merging method vouched for the estimate."""
+        return self.result.accepted
+
 
 @dataclass(frozen=True, slots=True)
 class TeamMerge:
-    """The outcome of one merge round.
+    """The outcome of one merge round (it knows nothing of the truth).
 
     Attributes
     ----------
@@ -59,94 +113,60 @@ class TeamMerge:
         Simulation step after which the round ran.
     method : str
         The merging method.
-    pairs : tuple of PairQuality
+    pairs : tuple of PairOutcome
         Every pair ``(i, j)``, ``i < j``, in lexicographic order.
-    groups : tuple of int
-        Per robot, the lowest index of the group of robots its map is linked
-        to through confirmed estimates (its own index when it is alone).
-    frames : tuple of (3, 3) float ndarray
-        Per robot, the rigid matrix taking its map frame to the map frame of
-        robot ``groups[k]`` (metres); the identity for a robot alone.
-    reference : int
-        The robot whose frame ``merged`` is in (:func:`merging.merge_all`'s
-        reference: robot 0, or the largest linked group's lowest index).
+    linking : Linking
+        How the confirmed pairs link the maps (:func:`merging.link_maps`).
     merged : OccupancyGrid
-        The fused map of the reference's group, in the reference's map frame.
-    agreement : float
-        :func:`merged_agreement` of ``merged`` with the ground truth.
+        The fused map of the main group, in the map frame of its root robot
+        (:attr:`reference`).
     seconds : float
-        Wall-clock time of steps 1-4 of the round (not the scoring).
+        Wall-clock time of the round.
     """
 
     step: int
     method: str
-    pairs: tuple[PairQuality, ...]
-    groups: tuple[int, ...]
-    frames: tuple[NDArray[np.float64], ...]
-    reference: int
+    pairs: tuple[PairOutcome, ...]
+    linking: Linking
     merged: OccupancyGrid
-    agreement: float
     seconds: float
 
     @property
-    def accepted(self) -> tuple[PairQuality, ...]:
-        """The pairs whose estimate the merger accepted this round."""
+    def reference(self) -> int:
+        """The robot whose map frame :attr:`merged` is in."""
+        return self.linking.main
+
+    @property
+    def groups(self) -> tuple[int, ...]:
+        """Per robot, the lowest index of the group its map is linked to (its own when alone)."""
+        return self.linking.roots
+
+    @property
+    def frames(self) -> tuple[NDArray[np.float64], ...]:
+        """Per robot, the matrix taking its map frame to its group root's map frame (metres)."""
+        metres = self.linking.transforms_metres
+        assert metres is not None  # robots' grids are OccupancyGrids
+        return metres
+
+    @property
+    def accepted(self) -> tuple[PairOutcome, ...]:
+        """The pairs whose estimate the merging method accepted this round."""
         return tuple(p for p in self.pairs if p.accepted)
 
     @property
     def merged_robots(self) -> tuple[int, ...]:
         """Robots whose maps are fused into :attr:`merged`."""
-        home = self.groups[self.reference]
-        return tuple(k for k, g in enumerate(self.groups) if g == home)
+        return self.linking.group(self.reference)
 
     def linked(self, robot: int) -> bool:
         """Whether ``robot``'s map is linked to at least one other robot's."""
-        return sum(g == self.groups[robot] for g in self.groups) > 1
+        return self.linking.linked(robot)
 
     def relative(self, robot: int, other: int) -> NDArray[np.float64] | None:
         """Matrix taking ``other``'s map frame to ``robot``'s (metres), None if not linked."""
         if self.groups[robot] != self.groups[other]:
             return None
         return np.asarray(np.linalg.inv(self.frames[robot]) @ self.frames[other], np.float64)
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain values (for infos and JSON)."""
-        return {
-            "step": self.step,
-            "method": self.method,
-            "agreement": self.agreement,
-            "accepted": len(self.accepted),
-            "merged_robots": list(self.merged_robots),
-            "pairs": {p.name: p.as_dict() for p in self.pairs},
-        }
-
-
-def _groups_and_frames(
-    count: int, result: MergeAllResult
-) -> tuple[tuple[int, ...], tuple[NDArray[np.float64], ...]]:
-    """Step 4: each robot's group (lowest index) and frame -> group frame, along the forest."""
-    groups = list(range(count))
-    frames: list[NDArray[np.float64] | None] = [None] * count
-    for root in range(count):
-        if frames[root] is not None:
-            continue
-        frames[root] = np.eye(3)
-        frontier = [root]
-        while frontier:
-            here = frontier.pop()
-            known = frames[here]
-            assert known is not None  # only placed robots enter the frontier
-            for i, j in result.tree:
-                other = j if here == i else i if here == j else None
-                if other is None or frames[other] is not None:
-                    continue
-                into_here = result.pair(here, other).matrix_metres  # other's frame -> here
-                if into_here is None:
-                    raise ValueError("merge results lack metre transforms; merge OccupancyGrids")
-                frames[other] = known @ into_here
-                groups[other] = root
-                frontier.append(other)
-    return tuple(groups), tuple(np.asarray(f, dtype=np.float64) for f in frames)
 
 
 class TeamMerger:
@@ -155,7 +175,8 @@ class TeamMerger:
     Parameters
     ----------
     method : str
-        A method of :func:`merging.available_methods` (default the tomographic one).
+        A method of :func:`merging.available_methods` (default the tomographic
+        one), or, with ``estimator``, the name it is reported under.
     interval : int
         Steps between merge rounds: rounds run after steps ``interval``,
         ``2 * interval``, ...
@@ -164,9 +185,12 @@ class TeamMerger:
         before the pair links maps (1: use an estimate as soon as it is accepted).
     rng : numpy.random.Generator, int or None
         Source of the merging methods' randomness; one stream serves all rounds.
+    estimator : PairEstimator, optional
+        Estimates a pair instead of ``merging.estimate_transform(grid_i, grid_j,
+        method=method)``.
     """
 
-    __slots__ = ("_rng", "_streaks", "confirmations", "interval", "method")
+    __slots__ = ("_estimator", "_rng", "_streaks", "confirmations", "interval", "method")
 
     def __init__(
         self,
@@ -175,10 +199,10 @@ class TeamMerger:
         interval: int = 50,
         confirmations: int = 2,
         rng: RngLike = None,
+        estimator: PairEstimator | None = None,
     ) -> None:
-        if method not in available_methods():
-            choices = ", ".join(available_methods())
-            raise ValueError(f"unknown merging method {method!r}; choose one of: {choices}")
+        if estimator is None:
+            check_method(method)
         for name, value in (("interval", interval), ("confirmations", confirmations)):
             if not (isinstance(value, int | np.integer) and value >= 1):
                 raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
@@ -186,11 +210,21 @@ class TeamMerger:
         self.interval = int(interval)
         self.confirmations = int(confirmations)
         self._rng = as_generator(rng)
+        self._estimator = estimator
         self._streaks: dict[tuple[int, int], tuple[int, NDArray[np.float64]]] = {}
 
     def due(self, step: int) -> bool:
         """Whether a round runs after step ``step``."""
         return step > 0 and step % self.interval == 0
+
+    def estimate(self, i: int, j: int, grids: Sequence[OccupancyGrid]) -> MergeResult:
+        """Step 1 for the pair ``(i, j)``."""
+        if self._estimator is not None:
+            result = self._estimator(i, j, grids[i], grids[j])
+            if not isinstance(result, MergeResult):
+                raise TypeError(f"the estimator returned {type(result).__name__}, not MergeResult")
+            return result
+        return estimate_transform(grids[i], grids[j], method=self.method, rng=self._rng)
 
     def confirm(self, pair: tuple[int, int], result: MergeResult) -> int:
         """Step 2: take in this round's estimate of ``pair``; returns its run of consistent
@@ -206,15 +240,8 @@ class TeamMerger:
         self._streaks[pair] = (streak, np.asarray(metres, dtype=np.float64))
         return streak
 
-    def merge(
-        self,
-        step: int,
-        grids: Sequence[OccupancyGrid],
-        *,
-        starts: ArrayLike,
-        truth: OccupancyGrid,
-    ) -> TeamMerge:
-        """Run one merge round (steps 1-5 of the module docstring).
+    def merge(self, step: int, grids: Sequence[OccupancyGrid]) -> TeamMerge:
+        """Run one merge round (steps 1-4 of the module docstring).
 
         Parameters
         ----------
@@ -222,58 +249,35 @@ class TeamMerger:
             The current step, stored in the result.
         grids : sequence of OccupancyGrid
             Each robot's grid in its own map frame, robot order.
-        starts : (N, 3) array_like
-            True start poses (for scoring only).
-        truth : OccupancyGrid
-            The world's ground-truth grid (for scoring only).
         """
-        poses = np.asarray(starts, dtype=float)
-        if poses.shape != (len(grids), 3):
-            raise ValueError(
-                f"starts must have shape ({len(grids)}, 3) (one pose per grid), got {poses.shape}"
-            )
-        index = {id(grid): k for k, grid in enumerate(grids)}
-        if len(index) != len(grids):
-            raise ValueError("grids must be distinct objects, one per robot")
-        raw: dict[tuple[int, int], MergeResult] = {}
-        streaks: dict[tuple[int, int], int] = {}
-
-        def estimator(first: OccupancyGrid, second: OccupancyGrid) -> MergeResult:
-            pair = (index[id(first)], index[id(second)])
-            result = estimate_transform(first, second, method=self.method, rng=self._rng)
-            raw[pair] = result
-            streaks[pair] = self.confirm(pair, result)
-            if result.accepted and streaks[pair] < self.confirmations:
-                why = f"awaiting confirmation ({streaks[pair]} of {self.confirmations} rounds)"
-                return replace(result, accepted=False, reason=why)
-            return result
-
+        if not all(isinstance(g, OccupancyGrid) for g in grids):
+            raise TypeError("grids must be OccupancyGrids, one per robot in robot order")
         clock = time.perf_counter()
-        result = merge_all(list(grids), estimator=estimator)
-        groups, frames = _groups_and_frames(len(grids), result)
-        seconds = time.perf_counter() - clock
+        count = len(grids)
+        raw: dict[tuple[int, int], MergeResult] = {}
+        confirmed: dict[tuple[int, int], MergeResult] = {}
+        for i in range(count):
+            for j in range(i + 1, count):
+                result = self.estimate(i, j, grids)
+                raw[(i, j)] = result
+                streak = self.confirm((i, j), result)
+                if result.accepted and streak < self.confirmations:
+                    why = f"awaiting confirmation ({streak} of {self.confirmations} rounds)"
+                    result = replace(result, accepted=False, reason=why)
+                confirmed[(i, j)] = result
+        linking = link_maps(grids, confirmed)
+        merged = fuse_group(grids, linking, linking.main).grid
+        assert merged is not None  # OccupancyGrid inputs give a georeferenced fused map
         pairs = tuple(
-            pair_quality(
+            PairOutcome(
+                i,
+                j,
                 raw[(i, j)],
-                (grids[i], grids[j]),
-                (poses[i], poses[j]),
-                pair=(i, j),
-                confirmed=streaks[(i, j)] >= self.confirmations,
-                used=(i, j) in result.tree,
+                confirmed=confirmed[(i, j)].accepted,
+                used=(i, j) in linking.tree,
+                dropped=(i, j) in linking.dropped,
             )
             for i, j in sorted(raw)
         )
-        merged = result.fused.grid
-        if merged is None:  # OccupancyGrid inputs always give a georeferenced fused map
-            raise ValueError("the fused map has no frame; merge OccupancyGrids")
-        return TeamMerge(
-            step=int(step),
-            method=self.method,
-            pairs=pairs,
-            groups=groups,
-            frames=frames,
-            reference=int(result.reference),
-            merged=merged,
-            agreement=float(merged_agreement(merged, truth, poses[result.reference])),
-            seconds=seconds,
-        )
+        seconds = time.perf_counter() - clock
+        return TeamMerge(int(step), self.method, pairs, linking, merged, seconds)

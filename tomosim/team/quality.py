@@ -16,12 +16,15 @@ in frame ``i``:
 Both grids are built at drifting odometry poses, so even a merge that lays the
 two grids perfectly over each other keeps an error of the order of the drift.
 
-:func:`merged_agreement` scores a merged map as a whole against the ground truth.
+:func:`merged_agreement` scores a merged map as a whole against the ground truth;
+:func:`score_round` scores a whole merge round, which the merger made without
+the truth (:class:`~tomosim.team.merger.TeamMerger`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,20 +33,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 from merging.metrics import acceptance_index, matching_index
-from merging.result import MergeResult
 from merging.transforms import matrix_to_pose
-from tomosim.frames import pose_matrix
+from tomosim.frames import frame_errors, pose_matrix
+from tomosim.team.merger import PairOutcome, TeamMerge, pair_name, robot_name
 
 TRUTH_WINDOW_MARGIN = 2
 """Cells of truth kept around the merged map's footprint when comparing the two;
 the comparison only counts cells both know, so the window only saves time."""
 NO_ESTIMATE = math.inf
 """Error reported when a method returned no finite transform: larger than any real error."""
-
-
-def robot_name(index: int) -> str:
-    """Short name of robot ``index`` in reports and recordings: ``"r0"``, ``"r1"``, ..."""
-    return f"r{index}"
 
 
 def _triple(values: ArrayLike) -> tuple[float, float, float]:
@@ -61,22 +59,6 @@ def true_relative(start_i: ArrayLike, start_j: ArrayLike) -> NDArray[np.float64]
         True start poses ``(x, y, theta)`` in the world (metres, radians).
     """
     return np.asarray(np.linalg.inv(pose_matrix(start_i)) @ pose_matrix(start_j), dtype=np.float64)
-
-
-def frame_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[float, float]:
-    """``(rotation_deg, translation_m)`` between two frame transforms (module docstring).
-
-    Returns ``(inf, inf)`` when ``estimate`` is not a finite 3x3 matrix.
-    """
-    est = np.asarray(estimate, dtype=float)
-    ref = np.asarray(truth, dtype=float)
-    if ref.shape != (3, 3) or not np.all(np.isfinite(ref)):
-        raise ValueError(f"truth must be a finite 3x3 matrix, got shape {ref.shape}")
-    if est.shape != (3, 3) or not np.all(np.isfinite(est)):
-        return NO_ESTIMATE, NO_ESTIMATE
-    turn = math.remainder(matrix_to_pose(est)[2] - matrix_to_pose(ref)[2], 2 * math.pi)
-    shift = float(np.hypot(*(est[:2, 2] - ref[:2, 2])))
-    return abs(math.degrees(turn)), shift
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +89,8 @@ class PairQuality:
         As in the module docstring (``inf`` without a finite estimate).
     reason : str
         Why the merger did not accept the estimate (empty when accepted).
+    dropped : bool
+        Confirmed, but left out of the links because it contradicts the others.
     """
 
     first: int
@@ -121,11 +105,12 @@ class PairQuality:
     rotation_error_deg: float
     translation_error_m: float
     reason: str = ""
+    dropped: bool = False
 
     @property
     def name(self) -> str:
         """``"r0-r1"``: the pair's name in reports and recordings."""
-        return f"{robot_name(self.first)}-{robot_name(self.second)}"
+        return pair_name(self.first, self.second)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain values (for infos and JSON); non-finite numbers stay floats."""
@@ -133,6 +118,7 @@ class PairQuality:
             "accepted": self.accepted,
             "confirmed": self.confirmed,
             "used": self.used,
+            "dropped": self.dropped,
             "confidence": self.confidence,
             "matching_index": self.matching_index,
             "rotation_error_deg": self.rotation_error_deg,
@@ -144,35 +130,23 @@ class PairQuality:
 
 
 def pair_quality(
-    result: MergeResult,
+    outcome: PairOutcome,
     grids: tuple[OccupancyGrid, OccupancyGrid],
     starts: tuple[ArrayLike, ArrayLike],
-    *,
-    pair: tuple[int, int],
-    confirmed: bool,
-    used: bool,
 ) -> PairQuality:
-    """Score one pairwise :class:`~merging.result.MergeResult` against the truth.
+    """Score one pair's estimate of a merge round against the truth.
 
     Parameters
     ----------
-    result : MergeResult
-        The estimate for ``pair = (i, j)``: its matrix takes grid ``j``'s cells to
-        grid ``i``'s, and ``matrix_metres`` frame ``j`` to frame ``i``.
+    outcome : PairOutcome
+        The estimate for robots ``(i, j)``: its matrix takes grid ``j``'s cells
+        to grid ``i``'s, and ``matrix_metres`` frame ``j`` to frame ``i``.
     grids : (OccupancyGrid, OccupancyGrid)
         Grids ``i`` and ``j`` as merged.
     starts : (array_like, array_like)
         True start poses of robots ``i`` and ``j``.
-    pair : (int, int)
-        ``(i, j)`` with ``i < j``.
-    confirmed : bool
-        Whether the estimate counts as confirmed (see :class:`PairQuality`).
-    used : bool
-        Whether the estimate links the maps (an edge of the spanning forest).
     """
-    i, j = pair
-    if not i < j:
-        raise ValueError(f"pair must be (i, j) with i < j, got {pair}")
+    result = outcome.result
     truth = true_relative(*starts)
     metres = result.matrix_metres
     estimate = np.full((3, 3), np.nan) if metres is None else np.asarray(metres, dtype=np.float64)
@@ -181,11 +155,11 @@ def pair_quality(
     overlap = matching_index(grids[0].data, grids[1].data, result.matrix) if finite else 0.0
     pose = matrix_to_pose(estimate) if np.all(np.isfinite(estimate)) else (NO_ESTIMATE,) * 3
     return PairQuality(
-        first=i,
-        second=j,
-        accepted=bool(result.accepted),
-        confirmed=confirmed,
-        used=used,
+        first=outcome.first,
+        second=outcome.second,
+        accepted=outcome.accepted,
+        confirmed=outcome.confirmed,
+        used=outcome.used,
         confidence=float(result.confidence),
         matching_index=float(overlap),
         estimate=_triple(pose),
@@ -193,7 +167,88 @@ def pair_quality(
         rotation_error_deg=rotation,
         translation_error_m=translation,
         reason=result.reason,
+        dropped=outcome.dropped,
     )
+
+
+@dataclass(frozen=True, slots=True)
+class RoundQuality:
+    """A merge round and how right it is: what reports, infos and recordings show.
+
+    Attributes
+    ----------
+    merge : TeamMerge
+        The round, as the merger made it from the grids alone.
+    pairs : tuple of PairQuality
+        Every pair of :attr:`TeamMerge.pairs`, scored against the truth.
+    agreement : float
+        :func:`merged_agreement` of the merged map with the ground truth.
+    """
+
+    merge: TeamMerge
+    pairs: tuple[PairQuality, ...]
+    agreement: float
+
+    @property
+    def step(self) -> int:
+        """Simulation step after which the round ran."""
+        return self.merge.step
+
+    @property
+    def method(self) -> str:
+        """The merging method."""
+        return self.merge.method
+
+    @property
+    def merged_robots(self) -> tuple[int, ...]:
+        """Robots whose maps are fused into the merged map."""
+        return self.merge.merged_robots
+
+    @property
+    def accepted(self) -> tuple[PairQuality, ...]:
+        """The pairs whose estimate the merger accepted this round."""
+        return tuple(p for p in self.pairs if p.accepted)
+
+    def as_dict(self, *, name: Callable[[int], str] = robot_name) -> dict[str, Any]:
+        """Plain values (for infos and JSON); ``name`` names robot ``k`` (default ``"r0"``),
+        and a pair ``"{name(i)}-{name(j)}"``."""
+        return {
+            "step": self.step,
+            "method": self.method,
+            "agreement": self.agreement,
+            "accepted": len(self.accepted),
+            "merged_robots": [name(k) for k in self.merged_robots],
+            "pairs": {f"{name(p.first)}-{name(p.second)}": p.as_dict() for p in self.pairs},
+        }
+
+
+def score_round(
+    merge: TeamMerge, grids: Sequence[OccupancyGrid], starts: ArrayLike, truth: OccupancyGrid
+) -> RoundQuality:
+    """Score a merge round against the truth.
+
+    Parameters
+    ----------
+    merge : TeamMerge
+        The round.
+    grids : sequence of OccupancyGrid
+        The robots' grids the round merged, robot order.
+    starts : (N, 3) array_like
+        True start poses.
+    truth : OccupancyGrid
+        The world's ground-truth grid.
+    """
+    poses = np.asarray(starts, dtype=float)
+    if poses.shape != (len(grids), 3):
+        raise ValueError(
+            f"starts must have shape ({len(grids)}, 3) (one pose per grid), got {poses.shape}"
+        )
+    pairs = tuple(
+        pair_quality(p, (grids[p.first], grids[p.second]), (poses[p.first], poses[p.second]))
+        for p in merge.pairs
+    )
+    agreement = merged_agreement(merge.merged, truth, poses[merge.reference])
+    return RoundQuality(merge, pairs, float(agreement))
 
 
 def merged_agreement(

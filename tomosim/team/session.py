@@ -7,7 +7,9 @@ runner drive. One :meth:`TeamSession.step`
 2. updates the team coverage and credits each robot with the free space the
    team knows for the first time (:mod:`tomosim.team.coverage`);
 3. every ``merge_interval`` steps, when merging is on, runs a merge round
-   (:class:`~tomosim.team.merger.TeamMerger`) and adopts its links;
+   (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone), adopts
+   its links, and scores it against the truth
+   (:func:`~tomosim.team.quality.score_round`);
 4. rebuilds the teammate layers that are due (:mod:`tomosim.team.sharing`).
 
 All randomness comes from the generator given at construction: one stream
@@ -21,12 +23,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from merging import available_methods
+from merging import check_method
 from merging.api import DEFAULT_METHOD
 from merging.grid import OccupancyGrid
 from tomosim.simulation import Simulation, SimulationConfig
 from tomosim.team.coverage import TeamCoverage
 from tomosim.team.merger import TeamMerge, TeamMerger
+from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
 from tomosim.worlds.world import RngLike, World, as_generator
 
@@ -60,9 +63,7 @@ class TeamConfig:
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
 
     def __post_init__(self) -> None:
-        if self.method not in available_methods():
-            choices = ", ".join(available_methods())
-            raise ValueError(f"unknown merging method {self.method!r}; choose one of: {choices}")
+        check_method(self.method)
         for name in ("merge_interval", "confirmations", "share_interval"):
             value = getattr(self, name)
             if not (isinstance(value, int | np.integer) and value >= 1):
@@ -92,6 +93,8 @@ class TeamSession:
         None when merging is off.
     last_merge : TeamMerge or None
         The latest merge round.
+    last_quality : RoundQuality or None
+        The latest merge round scored against the truth.
     rewards : (N,) float ndarray
         Square metres of free space each robot discovered for the team at the
         last step.
@@ -102,6 +105,7 @@ class TeamSession:
         "config",
         "coverage",
         "last_merge",
+        "last_quality",
         "merger",
         "rewards",
         "shared",
@@ -140,6 +144,7 @@ class TeamSession:
             reach=self.config.simulation.lidar.max_range,
         )
         self.last_merge: TeamMerge | None = None
+        self.last_quality: RoundQuality | None = None
         self._grids: list[OccupancyGrid] | None = None
         self.rewards = self.coverage.update(self.grids(), self._positions())
 
@@ -164,21 +169,20 @@ class TeamSession:
             self._grids = [self.simulation.grid(k) for k in range(self.count)]
         return self._grids
 
-    def step(self, commands: ArrayLike) -> TeamMerge | None:
-        """Advance one step (module docstring); returns the merge round run, if any."""
+    def step(self, commands: ArrayLike) -> RoundQuality | None:
+        """Advance one step (module docstring); returns the merge round run, if any, scored."""
         self.simulation.step(commands)
         self._grids = None
         grids = self.grids()
         self.rewards = self.coverage.update(grids, self._positions())
-        merge = None
+        scored = None
         if self.merger is not None and self.merger.due(self.steps):
-            merge = self.merger.merge(
-                self.steps, grids, starts=self.simulation.start_poses, truth=self.world.truth
-            )
-            self.last_merge = merge
+            merge = self.merger.merge(self.steps, grids)
+            scored = score_round(merge, grids, self.simulation.start_poses, self.world.truth)
+            self.last_merge, self.last_quality = merge, scored
             self.shared.link(merge)
         self.shared.refresh(self.steps, grids)
-        return merge
+        return scored
 
     def _positions(self) -> NDArray[np.float64]:
         """``(N, 2)`` estimated positions, each in its robot's map frame."""

@@ -37,9 +37,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
 from merging.grid import UNKNOWN, OccupancyGrid
+from merging.warp import warp_cells
 from tomosim.team.merger import TeamMerge
 
 ANCHOR_TOLERANCE = 1e-6
@@ -147,26 +147,9 @@ def teammate_layer(
     anchor = (int(low[0]), int(low[1]))
     shape = (int(high[1] - low[1]) + 1, int(high[0] - low[0]) + 1)
     layer = np.full(shape, UNKNOWN, dtype=np.int8)
+    into_layer = np.array([[1.0, 0.0, -anchor[0]], [0.0, 1.0, -anchor[1]], [0.0, 0.0, 1.0]])
     for data, to_lattice, _ in pieces:
-        back = np.linalg.inv(to_lattice)  # lattice (a, b) -> the piece's cells (x, y)
-        # ndimage indexes (row, col): input (y, x) = matrix @ (row, col) + offset, row = b - b0.
-        matrix = np.array([[back[1, 1], back[1, 0]], [back[0, 1], back[0, 0]]])
-        offset = np.array(
-            [
-                back[1, 0] * anchor[0] + back[1, 1] * anchor[1] + back[1, 2],
-                back[0, 0] * anchor[0] + back[0, 1] * anchor[1] + back[0, 2],
-            ]
-        )
-        warped = ndimage.affine_transform(
-            data,
-            matrix,
-            offset=offset,
-            output_shape=shape,
-            order=0,
-            mode="grid-constant",
-            cval=UNKNOWN,
-            prefilter=False,
-        )
+        warped = warp_cells(data, into_layer @ to_lattice, shape)
         np.maximum(layer, warped, out=layer)
     return layer, anchor
 

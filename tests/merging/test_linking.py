@@ -1,0 +1,204 @@
+"""Linking N grids: the spanning forest, contradictions around cycles, frames, merge_all."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from merging import MergeResult, OccupancyGrid, cells_to_metres, link_maps, merge_all
+from merging.linking import CONTRADICTION_CELLS, MergeAllResult, fuse_group
+from merging.transforms import apply_transform, rigid_matrix
+from merging.warp import warp_cells
+
+from .test_fusion import EXACT, random_room_map, translation
+
+BASE = random_room_map((60, 70), seed=11)
+"""The world the test robots' grids are cut from."""
+WINDOW = (30, 34)
+"""Rows, cols of each robot's grid."""
+POSES = [
+    rigid_matrix(5.0, 4.0, 0.0),
+    rigid_matrix(40.0, 8.0, np.pi / 2),
+    rigid_matrix(30.0, 55.0, np.pi),
+    rigid_matrix(2.0, 50.0, -np.pi / 2),
+]
+"""Per robot, the matrix taking its grid's cells to BASE's cells (quarter turns stay exact)."""
+
+
+def robot_grids() -> list[np.ndarray]:
+    return [warp_cells(BASE, np.linalg.inv(pose), WINDOW) for pose in POSES]
+
+
+def truth(i: int, j: int) -> np.ndarray:
+    """The true matrix taking grid j's cells to grid i's."""
+    return np.linalg.inv(POSES[i]) @ POSES[j]
+
+
+def table_pairs(table: dict[tuple[int, int], tuple]) -> dict[tuple[int, int], MergeResult]:
+    """Pairwise results from ``table[(i, j)] = (matrix, confidence, accepted)``."""
+    pairs = {}
+    for key, (matrix, confidence, accepted) in table.items():
+        reason = "" if accepted else "table says no"
+        pairs[key] = MergeResult(
+            np.asarray(matrix, float), confidence, accepted, "table", reason=reason
+        )
+    return pairs
+
+
+def link_table(grids: list, table: dict[tuple[int, int], tuple]) -> MergeAllResult:
+    """What merge_all returns when the pairwise estimates are ``table``'s."""
+    linking = link_maps(grids, table_pairs(table))
+    return MergeAllResult(linking, fuse_group(grids, linking, linking.main))
+
+
+def test_merge_all_chains_transforms_and_ignores_a_weak_wrong_pair() -> None:
+    grids = robot_grids()
+    wrong = truth(0, 2) @ translation(25, -12)
+    table = {
+        (0, 1): (truth(0, 1), 0.9, True),
+        (1, 2): (truth(1, 2), 0.8, True),
+        (2, 3): (truth(2, 3), 0.7, True),
+        (0, 2): (wrong, 0.3, True),  # accepted but wrong: the tree must not use it
+        (0, 3): (wrong, 0.95, False),  # confident but not accepted: never used
+    }
+    result = link_table(grids, table)
+    assert result.reference == 0
+    assert result.tree == ((0, 1), (1, 2), (2, 3))
+    assert result.unlinked == ()
+    for k in range(4):
+        np.testing.assert_allclose(result.transforms[k], truth(0, k), atol=EXACT)
+    np.testing.assert_allclose(result.pair(2, 0).matrix, np.linalg.inv(wrong), atol=EXACT)
+    assert any("pair 0-2" in note and "disagrees" in note for note in result.notes)
+    # the fused map is BASE seen from grid 0, wherever a robot saw it
+    into_base = POSES[0] @ np.linalg.inv(result.fused.offset)
+    expected = warp_cells(BASE, np.linalg.inv(into_base), result.fused.cells.shape)
+    seen = result.fused.cells >= 0
+    assert np.count_nonzero(seen) > 1.5 * WINDOW[0] * WINDOW[1]
+    np.testing.assert_array_equal(result.fused.cells[seen], expected[seen])
+
+
+def test_merge_all_with_a_strong_wrong_pair_would_differ() -> None:
+    """Control for the test above: the tree follows confidence, so the outcome can fail."""
+    grids = robot_grids()
+    wrong = truth(0, 2) @ translation(25, -12)
+    table = {(0, 1): (truth(0, 1), 0.9, True), (1, 2): (truth(1, 2), 0.8, True)}
+    table[(0, 2)] = (wrong, 0.99, True)
+    result = link_table(grids, table)
+    np.testing.assert_allclose(result.transforms[2], wrong, atol=EXACT)
+
+
+def test_merge_all_reports_an_unlinked_grid() -> None:
+    grids = robot_grids()
+    table = {(0, 1): (truth(0, 1), 0.9, True), (0, 2): (truth(0, 2), 0.6, True)}
+    table[(1, 3)] = (truth(1, 3), 0.4, False)
+    result = link_table(grids, table)
+    assert result.reference == 0
+    assert result.unlinked == (3,)
+    assert result.transforms[3] is None
+    assert result.fused_transform(3) is None
+    assert any(
+        note.startswith("grid 3 not linked") and "1-3" in note and "0.40" in note
+        for note in result.notes
+    )
+    assert result.fused.cells.shape[0] * result.fused.cells.shape[1] > 0
+
+
+def test_merge_all_uses_the_largest_group_when_grid_0_links_to_nothing() -> None:
+    grids = robot_grids()
+    table = {(1, 2): (truth(1, 2), 0.9, True), (2, 3): (truth(2, 3), 0.9, True)}
+    result = link_table(grids, table)
+    assert result.reference == 1
+    assert result.unlinked == (0,)
+    np.testing.assert_allclose(result.transforms[3], truth(1, 3), atol=EXACT)
+    assert "reference is grid 1" in result.notes[0]
+
+
+def test_merge_all_reports_a_group_cut_off_from_the_reference() -> None:
+    grids = robot_grids()
+    table = {(0, 1): (truth(0, 1), 0.9, True), (2, 3): (truth(2, 3), 0.9, True)}
+    result = link_table(grids, table)
+    assert result.reference == 0
+    assert result.unlinked == (2, 3)
+    assert any("grid 2 links to grid(s) 3" in note for note in result.notes)
+
+
+def test_merge_all_keeps_the_reference_georeference() -> None:
+    grids = [OccupancyGrid(g, resolution=0.05, origin=(1.0, 2.0, 0.0)) for g in robot_grids()]
+    table = {(0, 1): (truth(0, 1), 0.9, True)}
+    result = link_table(grids, table)
+    assert result.fused.grid is not None
+    cell = np.array([[3.0, 4.0]])
+    np.testing.assert_allclose(
+        result.fused.grid.cell_to_world(apply_transform(result.fused.offset, cell)),
+        grids[0].cell_to_world(cell),
+        atol=EXACT,
+    )
+
+
+def test_merge_all_validates_its_input() -> None:
+    cells = np.zeros((5, 5), dtype=np.int8)
+    with pytest.raises(ValueError, match="empty"):
+        merge_all([])
+    with pytest.raises(TypeError, match="sequence"):
+        merge_all(cells)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="unknown merging method"):
+        merge_all([cells], method="no-such-method")
+    with pytest.raises(ValueError, match=r"grids\[1\]"):
+        link_maps([cells, np.full((5, 5), 200)], {})
+    coarse = OccupancyGrid(cells, resolution=0.1)
+    with pytest.raises(ValueError, match=r"grids\[1\] 0.1 m"):
+        link_maps([OccupancyGrid(cells), coarse], {})
+    with pytest.raises(TypeError, match="MergeResult"):
+        link_maps([cells, cells], {(0, 1): None})  # type: ignore[dict-item]
+    with pytest.raises(ValueError, match=r"pair \(1, 0\)"):
+        link_maps([cells, cells], table_pairs({(1, 0): (np.eye(3), 0.9, True)}))
+
+
+def test_single_grid_is_its_own_fusion() -> None:
+    cells = random_room_map((8, 9), seed=12)
+    result = merge_all([cells])
+    np.testing.assert_array_equal(result.fused.cells, cells)
+    assert result.pairs == {} and result.tree == () and result.unlinked == ()
+
+
+def test_a_confident_wrong_pair_is_outvoted_around_cycles() -> None:
+    """Four maps: the wrong pair fails both its triangles, every right pair closes one."""
+    grids = robot_grids()
+    wrong = truth(0, 2) @ translation(25, -12)
+    table = {key: (truth(*key), 0.8, True) for key in [(0, 1), (0, 3), (1, 2), (1, 3), (2, 3)]}
+    table[(0, 2)] = (wrong, 0.99, True)  # the most confident pair, and wrong
+    result = link_table(grids, table)
+    assert result.linking.dropped == ((0, 2),)
+    assert any(note.startswith("pair 0-2") and "dropped" in note for note in result.notes)
+    for k in range(4):
+        np.testing.assert_allclose(result.transforms[k], truth(0, k), atol=EXACT)
+
+
+def test_a_small_disagreement_is_not_a_contradiction() -> None:
+    """Chained transforms of drifting maps differ by a few cells; nothing is dropped."""
+    grids = robot_grids()
+    nudge = translation(0.3 * CONTRADICTION_CELLS, 0.0)
+    table = {(0, 1): (truth(0, 1), 0.9, True), (1, 2): (truth(1, 2), 0.9, True)}
+    table[(0, 2)] = (truth(0, 2) @ nudge, 0.5, True)
+    result = link_table(grids, table)
+    assert result.linking.dropped == ()
+    assert result.tree == ((0, 1), (1, 2))
+
+
+def test_every_group_gets_frames_into_its_root() -> None:
+    grids = [
+        OccupancyGrid(g, resolution=0.05, origin=(0.3 * k, -0.2 * k, 0.1 * k))
+        for k, g in enumerate(robot_grids())
+    ]
+    table = {(0, 1): (truth(0, 1), 0.9, True), (2, 3): (truth(2, 3), 0.9, True)}
+    linking = link_maps(grids, table_pairs(table))
+    assert linking.groups == ((0, 1), (2, 3))
+    assert linking.roots == (0, 0, 2, 2)
+    np.testing.assert_allclose(linking.transforms[3], truth(2, 3), atol=EXACT)
+    assert linking.relative(0, 2) is None
+    metres = linking.transforms_metres
+    assert metres is not None
+    np.testing.assert_allclose(
+        metres[3], cells_to_metres(truth(2, 3), grids[2], grids[3]), atol=EXACT
+    )
+    np.testing.assert_allclose(metres[0], np.eye(3), atol=EXACT)
