@@ -13,18 +13,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 from pathlib import Path
 
 from PIL import Image
 from tqdm import tqdm
 
-from merging import available_methods
 from merging.api import DEFAULT_METHOD
 from tomosim.commands import CommandError, UsageError, one_line
 from tomosim.commands.explore_report import render_summary
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
+from tomosim.team import ORACLE, team_methods
 
 NAME = "explore"
 """The subcommand's name."""
@@ -66,9 +67,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"steps between merge rounds (default {DEFAULTS.merge_interval})",
     )
     parser.add_argument(
-        "--method", default=DEFAULT_METHOD, help=f"merging method (default {DEFAULT_METHOD})"
+        "--method",
+        default=DEFAULT_METHOD,
+        help=f"merging method: {', '.join(team_methods())}; {ORACLE} merges with the true "
+        f"start poses, the upper bound (default {DEFAULT_METHOD})",
     )
-    parser.add_argument("--no-merge", action="store_true", help="explore without merging")
+    parser.add_argument(
+        "--no-merge", action="store_true", help="explore without merging (the lower bound)"
+    )
+    parser.add_argument(
+        "--comm-range",
+        type=float,
+        default=None,
+        metavar="METRES",
+        help="robots exchange maps, poses and targets, and merge, only within this range, "
+        "directly or through teammates in range (default unlimited)",
+    )
+    parser.add_argument(
+        "--line-of-sight", action="store_true", help="walls block communication (with --comm-range)"
+    )
     parser.add_argument(
         "--coverage-target",
         type=float,
@@ -101,9 +118,13 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
     if not 0.0 < args.coverage_target <= 1.0:
         raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
-    if args.method not in available_methods():
-        choices = ", ".join(available_methods())
+    if args.method not in team_methods():
+        choices = ", ".join(team_methods())
         raise UsageError(f"unknown method {args.method!r}; choose one of: {choices}")
+    if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
+        raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
+    if args.line_of_sight and args.comm_range is None:
+        raise UsageError("--line-of-sight needs --comm-range")
     if args.policy not in chooser_names():
         choices = ", ".join(chooser_names())
         raise UsageError(f"unknown policy {args.policy!r}; choose one of: {choices}")
@@ -121,6 +142,8 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         merge_interval=args.merge_interval,
         method=args.method,
         coverage_target=args.coverage_target,
+        comm_range=args.comm_range,
+        line_of_sight=args.line_of_sight,
         seed=args.seed,
         record=args.record,
     )

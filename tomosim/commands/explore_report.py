@@ -11,10 +11,18 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from tomosim.episode import EpisodeMetrics
+from tomosim.episode import EpisodeConfig, EpisodeMetrics
+from tomosim.recording import RecordedRun
+from tomosim.recording.paths import (
+    OVERLAP_RATE,
+    PATH_LENGTH_TOTAL,
+    path_length_path,
+    robot_coverage_path,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,6 +38,12 @@ class PairSummary:
     rounds: int
     accepted_errors: tuple[tuple[float, float], ...]
     confirmed_errors: tuple[tuple[float, float], ...]
+
+
+DEFAULT_TARGET = EpisodeConfig.coverage_target
+"""Coverage target assumed for a recording whose settings do not name one."""
+DEFAULT_DT = 0.1
+"""Simulated seconds per step assumed for a recording whose settings do not name them."""
 
 
 def summarise_pairs(
@@ -130,3 +144,56 @@ def render_summary(metrics: EpisodeMetrics) -> str:
     if metrics.record is not None:
         lines += ["", f"recording: {metrics.record} (view: rerun {metrics.record})"]
     return "\n".join(lines)
+
+
+def recorded_figures(run: RecordedRun) -> dict[str, Any]:
+    """The exploration figures of a recording (the time series under ``team/``): the step and
+    simulated seconds at which the coverage target was reached, and at the last step each
+    robot's coverage and path length, the team's path length and overlap rate."""
+    settings = run.settings
+    coverage = run.coverage
+    target = float(settings.get("coverage_target", DEFAULT_TARGET))
+    dt = float(settings.get("dt", DEFAULT_DT))
+    reached = np.flatnonzero(coverage.values >= target)
+    step = int(coverage.steps[reached[0]]) if len(reached) else None
+    robots = []
+    k = 0
+    while robot_coverage_path(k) in run.series:
+        robots.append(
+            {
+                "coverage": _finite(run.series[robot_coverage_path(k)].last()),
+                "path_length_m": _finite(run.series[path_length_path(k)].last()),
+            }
+        )
+        k += 1
+    total = run.series.get(PATH_LENGTH_TOTAL)
+    overlap = run.series.get(OVERLAP_RATE)
+    return {
+        "coverage_target": target,
+        "steps_to_target": step,
+        "seconds_to_target": None if step is None else round(step * dt, 6),
+        "path_length_m": None if total is None else _finite(total.last()),
+        "overlap_rate": None if overlap is None else _finite(overlap.last()),
+        "robots": robots,
+    }
+
+
+def render_figures(figures: dict[str, Any]) -> list[str]:
+    """Lines for the figures of :func:`recorded_figures`."""
+    step = figures["steps_to_target"]
+    target = figures["coverage_target"]
+    reached = (
+        "not reached" if step is None else f"step {step}, {figures['seconds_to_target']:.1f} s"
+    )
+    lines = [f"{'time to ' + f'{target:.0%}':<16}{reached}"]
+    if figures["path_length_m"] is not None:
+        each = ", ".join(f"r{k} {r['path_length_m']:.1f}" for k, r in enumerate(figures["robots"]))
+        lines.append(f"{'path length':<16}{figures['path_length_m']:.1f} m ({each})")
+    if figures["overlap_rate"] is not None:
+        own = ", ".join(f"r{k} {r['coverage']:.2f}" for k, r in enumerate(figures["robots"]))
+        lines.append(f"{'own coverage':<16}{own}; overlap rate {figures['overlap_rate']:.2f}")
+    return lines
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None

@@ -22,6 +22,7 @@ from tqdm import tqdm
 from tomosim.commands import CommandError, UsageError, one_line
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE, SweepPlan, run_sweep
+from tomosim.team import team_methods
 
 NAME = "sweep"
 """The subcommand's name."""
@@ -43,7 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     parser.add_argument(
         "--methods", nargs="+", default=list(plan.methods),
-        help=f"merging methods, '{NO_MERGE}' for merging off (default: tomographic)",
+        help=f"merging methods ({', '.join(team_methods())}), '{NO_MERGE}' for merging off "
+        "(default: tomographic)",
     )  # fmt: skip
     parser.add_argument("--seeds", nargs="+", type=int, default=list(plan.seeds))
     parser.add_argument("--steps", type=int, default=plan.steps, help="most steps per episode")
@@ -52,6 +54,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world-size", nargs=2, type=float, metavar=("WIDTH", "HEIGHT"),
         help="size in metres of generated floor plans (default 30 20)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--comm-range", type=float, metavar="METRES",
+        help="robots talk only within this range, or through teammates in range "
+        "(default unlimited)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--line-of-sight", action="store_true", help="walls block communication"
     )  # fmt: skip
     parser.add_argument("--out", type=Path, required=True, help="CSV file the rows go to")
     parser.add_argument("--resume", action="store_true", help="skip episodes already in --out")
@@ -78,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
             merge_interval=args.merge_interval,
             coverage_target=args.coverage_target,
             world_size=None if args.world_size is None else tuple(args.world_size),
+            comm_range=args.comm_range,
+            line_of_sight=args.line_of_sight,
             record_dir=args.record_dir,
         )
         episodes = plan.episodes()

@@ -12,10 +12,11 @@ from typing import Any
 
 import numpy as np
 
-from merging import check_method
 from merging.api import DEFAULT_METHOD
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.simulation import SimulationConfig
+from tomosim.team.comms import CommsConfig
+from tomosim.team.oracle import check_team_method
 from tomosim.worlds import World, generate_floorplan, world_from_map
 
 DEFAULT_WORLD_SEED = 0
@@ -78,9 +79,14 @@ class EpisodeConfig:
     merge_interval : int
         Steps between merge rounds.
     method : str
-        Merging method.
+        Merging method, or ``"oracle"`` (the true start poses;
+        :mod:`tomosim.team.oracle`).
     coverage_target : float
         Fraction of the free space at which the episode ends.
+    comm_range : float or None
+        Metres over which robots can talk (None: unlimited; :mod:`tomosim.team.comms`).
+    line_of_sight : bool
+        Whether walls block communication (needs ``comm_range``).
     seed : int
         Seed of everything random in the episode (start poses, sensors, merging).
     record : Path or None
@@ -98,6 +104,8 @@ class EpisodeConfig:
     merge_interval: int = 50
     method: str = DEFAULT_METHOD
     coverage_target: float = 0.9
+    comm_range: float | None = None
+    line_of_sight: bool = False
     seed: int = 0
     record: Path | None = None
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
@@ -118,7 +126,12 @@ class EpisodeConfig:
             raise ValueError(
                 f"unknown exploration policy {self.policy!r}; choose one of: {choices}"
             )
-        check_method(self.method)
+        check_team_method(self.method)
+        self.comms()  # validates the range
+
+    def comms(self) -> CommsConfig:
+        """The team's communication settings."""
+        return CommsConfig(self.comm_range, self.line_of_sight)
 
     def settings(self, world: World) -> dict[str, Any]:
         """Plain values describing the episode (recorded with it and printed in reports)."""
@@ -132,5 +145,8 @@ class EpisodeConfig:
             "merge_interval": int(self.merge_interval),
             "method": self.method,
             "coverage_target": float(self.coverage_target),
+            "comm_range": None if self.comm_range is None else float(self.comm_range),
+            "line_of_sight": bool(self.line_of_sight),
             "seed": int(self.seed),
+            "dt": float(self.simulation.dt),
         }

@@ -72,6 +72,7 @@ def run_episode(
         merge=config.merge,
         method=config.method,
         merge_interval=config.merge_interval,
+        comms=config.comms(),
         simulation=config.simulation,
     )
     session = TeamSession(world, robots=config.robots, config=team, rng=config.seed)

@@ -98,8 +98,15 @@ class TargetChooser(Protocol):
     (:meth:`FrontierPolicy.act <tomosim.exploration.FrontierPolicy.act>`).
     """
 
-    name: str
-    coordinated: bool
+    @property
+    def name(self) -> str:
+        """The chooser's name in :data:`CHOOSERS`."""
+        ...
+
+    @property
+    def coordinated(self) -> bool:
+        """Whether it uses teammates."""
+        ...
 
     def choose(
         self, candidates: Sequence[Candidate], teammates: Sequence[Teammate], *, size_bonus: float

@@ -91,7 +91,9 @@ class TeamExplorer:
                     robot=other,
                     position=_carry(into_robot, pose),
                     target=target,
-                    path_costs=_carried_costs(policy, np.linalg.inv(into_robot)),
+                    path_costs=_carried_costs(
+                        policy, np.asarray(np.linalg.inv(into_robot), np.float64)
+                    ),
                 )
             )
         return mates

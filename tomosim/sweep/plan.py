@@ -6,9 +6,9 @@ import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from merging import available_methods
 from tomosim.episode import EpisodeConfig
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
+from tomosim.team import CommsConfig, team_methods
 
 NO_MERGE = "none"
 """Method name standing for an episode with merging switched off."""
@@ -35,8 +35,8 @@ class SweepPlan:
     policies : tuple of str
         Exploration policies (:func:`~tomosim.exploration.chooser_names`).
     methods : tuple of str
-        Merging methods (:func:`merging.available_methods`), or ``"none"``
-        for merging switched off.
+        Merging methods (:func:`merging.available_methods`, or ``"oracle"``:
+        the true start poses), or ``"none"`` for merging switched off.
     seeds : tuple of int
         Episode seeds.
     steps, merge_interval : int
@@ -45,6 +45,10 @@ class SweepPlan:
         Team coverage at which an episode ends.
     world_size : (float, float) or None
         Size in metres of generated floor plans (None: the default 30 x 20).
+    comm_range : float or None
+        Metres over which robots can talk (None: unlimited).
+    line_of_sight : bool
+        Whether walls block communication.
     record_dir : Path or None
         Folder for one ``.rrd`` recording per episode (None: no recordings).
     """
@@ -58,13 +62,15 @@ class SweepPlan:
     merge_interval: int = 50
     coverage_target: float = 0.9
     world_size: tuple[float, float] | None = None
+    comm_range: float | None = None
+    line_of_sight: bool = False
     record_dir: Path | None = None
 
     def __post_init__(self) -> None:
         for name in ("worlds", "robots", "policies", "methods", "seeds"):
             if len(getattr(self, name)) == 0:
                 raise ValueError(f"a sweep needs at least one value of {name}")
-        known = set(available_methods()) | {NO_MERGE}
+        known = set(team_methods()) | {NO_MERGE}
         unknown = [m for m in self.methods if m not in known]
         if unknown:
             raise ValueError(f"unknown merging method(s) {unknown}; choose from {sorted(known)}")
@@ -73,6 +79,7 @@ class SweepPlan:
             raise ValueError(
                 f"unknown exploration policy(ies) {strange}; choose from {list(chooser_names())}"
             )
+        CommsConfig(self.comm_range, self.line_of_sight)  # validates the range
         for name in ("robots", "seeds", "policies", "methods", "worlds"):
             values = getattr(self, name)
             if len(set(values)) != len(values):
@@ -87,6 +94,9 @@ class SweepPlan:
             "world_size": "default"
             if self.world_size is None
             else "x".join(f"{v:g}" for v in self.world_size),
+            "comm_range": "unlimited"
+            if self.comm_range is None
+            else f"{self.comm_range:g}" + (" los" if self.line_of_sight else ""),
         }
 
     def episodes(self) -> list[Episode]:
@@ -114,6 +124,8 @@ class SweepPlan:
             merge_interval=self.merge_interval,
             method=method if merge else EpisodeConfig.method,
             coverage_target=self.coverage_target,
+            comm_range=self.comm_range,
+            line_of_sight=self.line_of_sight,
             seed=seed,
         )
         if self.record_dir is not None:

@@ -17,12 +17,12 @@ TIMING_FIELDS = ("wall_seconds", "merge_seconds")
 """Columns that measure the machine, not the episode: they differ between runs."""
 ROW_FIELDS = (
     "key", "world", "world_spec", "robots", "policy", "method", "seed", "steps_limit",
-    "merge_interval", "coverage_target", "world_size", "steps", "coverage", "steps_to_target",
-    "time_to_target_s", "stop_reason", "path_length_m", "path_lengths_m", "overlap_rate",
-    "efficiency_m2_per_m", "merge_rounds", "pairs_accepted", "pairs_confirmed", "pairs_wrong",
-    "pairs_gross_wrong", "first_link_step", "linked_robots", "rotation_error_deg_median",
-    "rotation_error_deg_max", "translation_error_m_median", "translation_error_m_max", "record",
-    *TIMING_FIELDS,
+    "merge_interval", "coverage_target", "world_size", "comm_range", "steps", "coverage",
+    "steps_to_target", "time_to_target_s", "stop_reason", "path_length_m", "path_lengths_m",
+    "overlap_rate", "efficiency_m2_per_m", "merge_rounds", "pairs_accepted", "pairs_confirmed",
+    "pairs_wrong", "pairs_gross_wrong", "first_link_step", "linked_robots",
+    "rotation_error_deg_median", "rotation_error_deg_max", "translation_error_m_median",
+    "translation_error_m_max", "record", *TIMING_FIELDS,
 )  # fmt: skip
 """Columns of the results file, in order."""
 
@@ -47,6 +47,7 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
         "merge_interval": shared["merge_interval"],
         "coverage_target": shared["coverage_target"],
         "world_size": shared["world_size"],
+        "comm_range": shared["comm_range"],
         "steps": metrics.steps,
         "coverage": round(metrics.coverage, 6),
         "steps_to_target": "" if target is None else target,
