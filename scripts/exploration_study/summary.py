@@ -38,9 +38,10 @@ class Cell:
     seeds : tuple of int
     path_length, overlap_rate : float
         Medians over seeds: metres the team travelled, final overlap rate.
-    wrong, gross_wrong, accepted : int
-        Accepted merges beyond the accuracy bar, false matches, all accepted,
-        summed over seeds.
+    wrong, gross_wrong, gross_wrong_confirmed, accepted : int
+        Accepted merges beyond the accuracy bar, false matches, false matches
+        that were also confirmed (and so linked maps), all accepted; summed
+        over seeds.
     """
 
     times: tuple[float, ...]
@@ -49,6 +50,7 @@ class Cell:
     overlap_rate: float
     wrong: int
     gross_wrong: int
+    gross_wrong_confirmed: int
     accepted: int
 
     @property
@@ -88,6 +90,7 @@ def cells(rows: Iterable[dict[str, str]]) -> dict[tuple[int, str, str], Cell]:
             overlap_rate=statistics.median(_number(r["overlap_rate"]) for r in mine),
             wrong=sum(int(r["pairs_wrong"]) for r in mine),
             gross_wrong=sum(int(r["pairs_gross_wrong"]) for r in mine),
+            gross_wrong_confirmed=sum(int(r["pairs_gross_wrong_confirmed"]) for r in mine),
             accepted=sum(int(r["pairs_accepted"]) for r in mine),
         )
     return out
@@ -140,6 +143,7 @@ def pooled(tables: Sequence[dict[tuple[int, str, str], Cell]], robots: int, poli
         overlap_rate=statistics.median(c.overlap_rate for c in found),
         wrong=sum(c.wrong for c in found),
         gross_wrong=sum(c.gross_wrong for c in found),
+        gross_wrong_confirmed=sum(c.gross_wrong_confirmed for c in found),
         accepted=sum(c.accepted for c in found),
     )
 

@@ -84,6 +84,8 @@ class MergeStats:
         Accepted estimates beyond :data:`WRONG_ROTATION_DEG` or :data:`WRONG_TRANSLATION_M`.
     gross_wrong : int
         Accepted estimates beyond :data:`GROSS_ROTATION_DEG` or :data:`GROSS_TRANSLATION_M`.
+    gross_wrong_confirmed : int
+        Those of them also confirmed, which linked maps.
     first_link_step : int or None
         The first round in which a confirmed estimate linked two maps.
     linked_robots : int
@@ -100,6 +102,7 @@ class MergeStats:
     confirmed: int
     wrong: int
     gross_wrong: int
+    gross_wrong_confirmed: int
     first_link_step: int | None
     linked_robots: int
     rotation_error_deg_max: float
@@ -200,15 +203,17 @@ class EpisodeMetrics:
         translation = np.array([p.translation_error_m for p in accepted], dtype=float)
         wrong = (rotation > WRONG_ROTATION_DEG) | (translation > WRONG_TRANSLATION_M)
         gross = (rotation > GROSS_ROTATION_DEG) | (translation > GROSS_TRANSLATION_M)
+        confirmed = np.array([p.confirmed for p in accepted], dtype=bool)
         linked = [m.step for m in self.merges if any(p.used for p in m.pairs)]
         last = self.merges[-1] if self.merges else None
         return MergeStats(
             rounds=len(self.merges),
             estimates=len(pairs),
             accepted=len(accepted),
-            confirmed=sum(1 for p in accepted if p.confirmed),
+            confirmed=int(np.count_nonzero(confirmed)),
             wrong=int(np.count_nonzero(wrong)),
             gross_wrong=int(np.count_nonzero(gross)),
+            gross_wrong_confirmed=int(np.count_nonzero(gross & confirmed)),
             first_link_step=linked[0] if linked else None,
             linked_robots=len(last.merged_robots) if last is not None else 1,
             rotation_error_deg_max=float(rotation.max()) if len(rotation) else math.nan,

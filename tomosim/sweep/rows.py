@@ -20,7 +20,8 @@ ROW_FIELDS = (
     "merge_interval", "coverage_target", "world_size", "comm_range", "steps", "coverage",
     "steps_to_target", "time_to_target_s", "stop_reason", "path_length_m", "path_lengths_m",
     "overlap_rate", "efficiency_m2_per_m", "merge_rounds", "pairs_accepted", "pairs_confirmed",
-    "pairs_wrong", "pairs_gross_wrong", "first_link_step", "linked_robots",
+    "pairs_wrong", "pairs_gross_wrong", "pairs_gross_wrong_confirmed", "first_link_step",
+    "linked_robots",
     "rotation_error_deg_median", "rotation_error_deg_max", "translation_error_m_median",
     "translation_error_m_max", "record", *TIMING_FIELDS,
 )  # fmt: skip
@@ -62,6 +63,7 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
         "pairs_confirmed": stats.confirmed,
         "pairs_wrong": stats.wrong,
         "pairs_gross_wrong": stats.gross_wrong,
+        "pairs_gross_wrong_confirmed": stats.gross_wrong_confirmed,
         "first_link_step": "" if stats.first_link_step is None else stats.first_link_step,
         "linked_robots": stats.linked_robots,
         "rotation_error_deg_median": _stat(np.median, rotation),
