@@ -10,9 +10,12 @@ from tomosim.episode import EpisodeConfig
 
 DEFAULT_WORLDS = ("0", "1", "2", "aces3", "fr079")
 """Three generated floors and two real buildings."""
+FLOOR_STEPS = 4000
+"""Step cap (0.1 s each) on generated floors: room for one robot alone to reach 90 %
+(teams stop at 90 % long before; a cap only ends episodes that do not get there)."""
 REAL_MAP_STEPS = {"aces3": EpisodeConfig.steps, "fr079": 6000}
-"""Step caps of the real maps (0.1 s each): ``aces3`` is explored to 90 % within the
-default cap; ``fr079`` has four times its free space."""
+"""Step caps of the real maps: ``aces3``'s is the default cap, within which 4 robots
+must reach 90 %; ``fr079`` has four times ``aces3``'s free space."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,7 +52,7 @@ def resolve(token: str, steps: int | None = None) -> StudyWorld:
         When a named map cannot be found (with what to do).
     """
     if token.isdigit():
-        return StudyWorld(token, token, f"floor{token}", True, steps or EpisodeConfig.steps)
+        return StudyWorld(token, token, f"floor{token}", True, steps or FLOOR_STEPS)
     if token.endswith((".yaml", ".yml")):
         path = Path(token)
     else:
