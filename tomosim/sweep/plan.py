@@ -58,7 +58,7 @@ class SweepPlan:
     policies: tuple[str, ...] = (DEFAULT_POLICY,)
     methods: tuple[str, ...] = ("tomographic",)
     seeds: tuple[int, ...] = (0,)
-    steps: int = 1500
+    steps: int = EpisodeConfig.steps
     merge_interval: int = 50
     coverage_target: float = 0.9
     world_size: tuple[float, float] | None = None
