@@ -16,8 +16,11 @@ runs what it lacks, and anything else the grid asks for comes last):
 1. generated floors, 4 robots, the default policy, every method;
 2. generated floors, every team size, the default policy;
 3. ``aces3``, 4 robots, the default policy;
-4. generated floors, the other policies;
-5. the rest of the grid (real maps' other team sizes and policies, ``fr079``).
+4. generated floors, 4 robots, the default policy, with each communication
+   range of ``--comm-ranges`` (merging methods only: merging off does not
+   talk);
+5. generated floors, the other policies;
+6. the rest of the grid (real maps' other team sizes and policies, ``fr079``).
 
 Outputs in ``--out``: the CSVs, ``study_exploration.md`` (tables and the
 acceptance checks) and two PNGs (time to 90 % against team size; speed-up of
@@ -37,7 +40,13 @@ import sys
 from pathlib import Path
 
 from exploration_study.plots import gains_figure, times_figure
-from exploration_study.report import checks, checks_markdown, policies_table, times_table
+from exploration_study.report import (
+    checks,
+    checks_markdown,
+    comm_table,
+    policies_table,
+    times_table,
+)
 from exploration_study.runs import Grid, read_rows, run_world
 from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
 from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
@@ -50,11 +59,15 @@ OUTPUT = Path(__file__).resolve().parents[1] / "docs" / "figures" / "study_explo
 ROBOTS = (1, 2, 4, 6)
 METHODS = (NO_MERGE, TOMOGRAPHIC, ORACLE)
 SEEDS = (0, 1, 2, 3)
+COMM_RANGES = (10.0, 5.0)
+"""Communication ranges (metres) of the fourth stage: a room or two, and a few metres."""
 CORE_TEAM = 4
-"""The team size of the first and third stages."""
+"""The team size of the first, third and fourth stages."""
 
 
-def stages(worlds: list[StudyWorld], grid: Grid, policy: str) -> list[tuple[StudyWorld, Grid]]:
+def stages(
+    worlds: list[StudyWorld], grid: Grid, policy: str, comm_ranges: tuple[float, ...]
+) -> list[tuple[StudyWorld, Grid]]:
     """The study's runs in order of importance (module docstring)."""
     floors = [w for w in worlds if w.generated]
     real = [w for w in worlds if not w.generated]
@@ -63,24 +76,31 @@ def stages(worlds: list[StudyWorld], grid: Grid, policy: str) -> list[tuple[Stud
     mine = (policy,) if policy in grid.policies else ()
     aces3 = [w for w in real if w.label == "aces3"]
 
-    def part(robots: tuple[int, ...], policies: tuple[str, ...]) -> Grid:
-        return Grid(robots, policies, grid.methods, grid.seeds, grid.alone)
+    def part(robots: tuple[int, ...], policies: tuple[str, ...], comm: float | None = None) -> Grid:
+        return Grid(robots, policies, grid.methods, grid.seeds, grid.alone, comm)
 
     out: list[tuple[StudyWorld, Grid]] = []
     if mine:
         out += [(w, part(core, mine)) for w in floors]
         out += [(w, part(grid.robots, mine)) for w in floors]
         out += [(w, part(core, mine)) for w in aces3]
+        out += [(w, part(core, mine, r)) for r in comm_ranges for w in floors]
     if others:
         out += [(w, part(grid.robots, others)) for w in floors]
     out += [(w, grid) for w in worlds]
     return [(w, g) for w, g in out if g.robots]
 
 
-def report(worlds: list[StudyWorld], grid: Grid, policy: str, out: Path) -> str:
+def report(
+    worlds: list[StudyWorld], grid: Grid, policy: str, comm_ranges: tuple[float, ...], out: Path
+) -> str:
     """Write the Markdown and the figures from the rows so far; returns the Markdown."""
     rows = read_rows(out, worlds)
     tables = {label: cells(r) for label, r in rows.items() if r}
+    limited = {}
+    for metres in comm_ranges:
+        found = read_rows(out, worlds, metres)
+        limited[metres] = {label: cells(r) for label, r in found.items() if r}
     text = [
         f"# Exploration study: time to 90 % coverage, policy `{policy}`",
         "",
@@ -96,6 +116,10 @@ def report(worlds: list[StudyWorld], grid: Grid, policy: str, out: Path) -> str:
         "## Policies (generated floors pooled, no merging)",
         "",
         policies_table(worlds, tables, grid.policies, grid.robots, NO_MERGE),
+        "",
+        f"## Communication range (generated floors pooled, {CORE_TEAM} robots)",
+        "",
+        comm_table(worlds, tables, limited, policy, CORE_TEAM),
         "",
         "## Acceptance checks",
         "",
@@ -124,6 +148,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--methods", nargs="+", default=list(METHODS))
     parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
     parser.add_argument("--steps", type=int, help="step cap of every world (default: per world)")
+    parser.add_argument(
+        "--comm-ranges", nargs="*", type=float, default=list(COMM_RANGES), metavar="METRES",
+        help="communication ranges of the fourth stage (default: 10 5; none: skip it)",
+    )  # fmt: skip
     parser.add_argument("--executor", choices=EXECUTORS, default="process")
     parser.add_argument("--workers", type=int, help="local processes (default: all cores)")
     parser.add_argument("--out", type=Path, default=OUTPUT, help="folder of the outputs")
@@ -142,11 +170,11 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     if not args.report_only:
         try:
-            for world, part in stages(worlds, grid, args.policy):
+            for world, part in stages(worlds, grid, args.policy, tuple(args.comm_ranges)):
                 run_world(world, part, args.out, executor=args.executor, workers=args.workers)
         except KeyboardInterrupt:
             print("interrupted: rerun the same command to resume", file=sys.stderr)
-    print(report(worlds, grid, args.policy, args.out))
+    print(report(worlds, grid, args.policy, tuple(args.comm_ranges), args.out))
     return 0
 
 

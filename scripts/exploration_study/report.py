@@ -114,6 +114,35 @@ def policies_table(
     return "\n".join(lines)
 
 
+def comm_table(
+    worlds: Sequence[StudyWorld],
+    tables: dict[str, Table],
+    limited: dict[float, dict[str, Table]],
+    policy: str,
+    robots: int,
+) -> str:
+    """Generated floors pooled: median time to the target per communication range."""
+    floors = [w.label for w in worlds if w.generated]
+    cap = max((w.steps for w in worlds if w.generated), default=1500) * 0.1
+    lines = [
+        "| communication range | tomographic [s] | oracle [s] | no merging [s] |",
+        "|---|---|---|---|",
+    ]
+    none = pooled([tables[f] for f in floors if f in tables], robots, policy, NO_MERGE)
+    rows = [("unlimited", tables)] + [(f"{metres:g} m", t) for metres, t in limited.items()]
+    for name, found in rows:
+        chosen = [found[f] for f in floors if f in found]
+        cells = [pooled(chosen, robots, policy, m) for m in (TOMOGRAPHIC, ORACLE)]
+        if all(c is None for c in cells):
+            continue
+        text = [
+            "-" if c is None else f"{seconds(c.median, cap)} ({spread(c, cap)})"
+            for c in [*cells, none]
+        ]
+        lines.append(f"| {name} | {' | '.join(text)} |")
+    return "\n".join(lines)
+
+
 @dataclass(frozen=True, slots=True)
 class Check:
     """One acceptance check: what, the figure measured, whether it passes."""

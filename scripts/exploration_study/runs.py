@@ -8,8 +8,10 @@ targets as ``nearest`` does (``tests/tomosim/test_coordination.py``), so
 * a team of one runs with merging off only (its time is every method's), and
 * merging off runs with one policy only (its time is every policy's),
 
-both with the study's own policy (:attr:`Grid.alone`). The rows go
-to ``<folder>/<label>.csv`` as episodes finish (:func:`tomosim.sweep.run_sweep`),
+both with the study's own policy (:attr:`Grid.alone`); and with a
+communication range merging off is left out too (it is the same without
+one). The rows go to ``<folder>/<label>.csv`` (``<label>_comm<range>m.csv``
+with a range) as episodes finish (:func:`tomosim.sweep.run_sweep`),
 so a killed study loses at most the episodes running, and the next run skips
 what is done.
 """
@@ -23,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from exploration_study.worlds import StudyWorld
-from tomosim.sweep import NO_MERGE, Episode, ResultsFile, SweepPlan, run_sweep
+from tomosim.sweep import NO_MERGE, ResultsFile, SweepPlan, run_sweep
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,15 +38,26 @@ class Grid:
     seeds: tuple[int, ...]
     alone: str
     """The policy of the episodes in which no robot is linked (module docstring)."""
+    comm_range: float | None = None
+    """Metres over which robots talk (None: unlimited)."""
 
 
 def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
     """The sweeps of one world (module docstring); all share one results file."""
-    common: dict[str, Any] = {"worlds": (world.spec,), "seeds": grid.seeds, "steps": world.steps}
+    common: dict[str, Any] = {
+        "worlds": (world.spec,),
+        "seeds": grid.seeds,
+        "steps": world.steps,
+        "comm_range": grid.comm_range,
+    }
     out = []
-    alone = tuple(n for n in grid.robots if n == 1)
     teams = tuple(n for n in grid.robots if n > 1)
     merging = tuple(m for m in grid.methods if m != NO_MERGE)
+    if grid.comm_range is not None:
+        if teams and merging and grid.policies:
+            out.append(SweepPlan(robots=teams, policies=grid.policies, methods=merging, **common))
+        return out
+    alone = tuple(n for n in grid.robots if n == 1)
     if alone:
         out.append(SweepPlan(robots=alone, policies=(grid.alone,), methods=(NO_MERGE,), **common))
     if teams and NO_MERGE in grid.methods:
@@ -54,22 +67,18 @@ def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
     return out
 
 
-def results_path(folder: Path, world: StudyWorld) -> Path:
-    """Where a world's rows go."""
-    return folder / f"{world.label}.csv"
-
-
-def pending(world: StudyWorld, grid: Grid, folder: Path) -> list[Episode]:
-    """The world's episodes not yet in its results file."""
-    done = {row["key"] for row in ResultsFile(results_path(folder, world)).rows()}
-    return [e for plan in plans(world, grid) for e in plan.episodes() if e.key not in done]
+def results_path(folder: Path, world: StudyWorld, comm_range: float | None = None) -> Path:
+    """Where a world's rows go (with a communication range, a file of their own)."""
+    return folder / (
+        f"{world.label}.csv" if comm_range is None else f"{world.label}_comm{comm_range:g}m.csv"
+    )
 
 
 def run_world(
     world: StudyWorld, grid: Grid, folder: Path, *, executor: str, workers: int | None
 ) -> int:
     """Run the world's pending episodes; returns how many ran."""
-    path = results_path(folder, world)
+    path = results_path(folder, world, grid.comm_range)
 
     def progress(row: dict[str, object]) -> None:
         reached = row["time_to_target_s"] or "-"
@@ -89,6 +98,8 @@ def run_world(
     return ran
 
 
-def read_rows(folder: Path, worlds: Sequence[StudyWorld]) -> dict[str, list[dict[str, str]]]:
-    """Every world's rows so far, by label."""
-    return {w.label: ResultsFile(results_path(folder, w)).rows() for w in worlds}
+def read_rows(
+    folder: Path, worlds: Sequence[StudyWorld], comm_range: float | None = None
+) -> dict[str, list[dict[str, str]]]:
+    """Every world's rows so far (with ``comm_range``), by label."""
+    return {w.label: ResultsFile(results_path(folder, w, comm_range)).rows() for w in worlds}
