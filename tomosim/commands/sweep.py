@@ -26,7 +26,7 @@ from tomosim.team import team_methods
 
 NAME = "sweep"
 """The subcommand's name."""
-HELP = "run many seeded episodes (worlds x robots x methods x seeds), locally or on Ray"
+HELP = "run many seeded episodes (worlds x robots x policies x methods x seeds), locally or on Ray"
 """One line for ``tomosim --help``."""
 
 
