@@ -8,7 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
-from exploration_study.summary import ORACLE, TOMOGRAPHIC, Cell, lookup, oracle_share, speedup
+from exploration_study.summary import (
+    ORACLE,
+    TOMOGRAPHIC,
+    Cell,
+    lookup,
+    oracle_share,
+    pooled,
+    speedup,
+)
 from exploration_study.worlds import StudyWorld
 from tomosim.sweep import NO_MERGE
 
@@ -93,34 +101,34 @@ def gains_figure(
     path: Path,
 ) -> None:
     """Left: speed-up of merging over none against team size (tomographic solid, oracle
-    dashed) per world. Right: the share of the oracle's speed-up the tomographic merger
-    reaches."""
+    dashed) per world, and over the generated floors pooled (black). Right: the share of
+    the oracle's speed-up the tomographic merger reaches."""
     teams = [n for n in robots if n > 1]
     shown = [w for w in worlds if tables.get(w.label)]
     if not shown or not teams:
         return
+    floors = [tables[w.label] for w in shown if w.generated]
+    series: list[tuple[str, dict[tuple[int, str], float]]] = []
+    for world in shown:
+        series.append((world.label, _medians(teams, policy, [tables[world.label]], pooled_=False)))
+    if len(floors) > 1:
+        series.append(("floors pooled", _medians(teams, policy, floors, pooled_=True)))
     plt = _pyplot()
     figure, (left, right) = plt.subplots(1, 2, figsize=(9.0, 3.4))
     colours = plt.get_cmap("tab10")
-    width = 0.8 / len(shown)
-    for k, world in enumerate(shown):
-        table = tables[world.label]
-        medians = {
-            (n, m): (c.median if (c := lookup(table, n, policy, m)) is not None else math.nan)
-            for n in teams
-            for m in STYLES
-        }
+    width = 0.8 / len(series)
+    for k, (label, medians) in enumerate(series):
         tomo = [speedup(medians[(n, NO_MERGE)], medians[(n, TOMOGRAPHIC)]) for n in teams]
         oracle = [speedup(medians[(n, NO_MERGE)], medians[(n, ORACLE)]) for n in teams]
-        colour = colours(k)
-        left.plot(teams, tomo, marker="o", color=colour, label=world.label)
+        colour = "black" if label == "floors pooled" else colours(k)
+        left.plot(teams, tomo, marker="o", color=colour, label=label)
         left.plot(teams, oracle, marker="^", ls="--", color=colour, alpha=0.7)
         share = [
             oracle_share(medians[(n, NO_MERGE)], medians[(n, TOMOGRAPHIC)], medians[(n, ORACLE)])
             for n in teams
         ]
         right.bar(np.arange(len(teams)) + k * width, np.nan_to_num(share, nan=0.0), width,
-                  color=colour, label=world.label)  # fmt: skip
+                  color=colour, label=label)  # fmt: skip
     left.axhline(1.0, color="black", lw=0.6)
     left.set_xticks(teams)
     left.set_xlabel("robots")
@@ -129,7 +137,7 @@ def gains_figure(
     left.legend(fontsize=7)
     left.grid(alpha=0.3)
     right.axhline(1.0, color="black", lw=0.6)
-    right.set_xticks(np.arange(len(teams)) + width * (len(shown) - 1) / 2)
+    right.set_xticks(np.arange(len(teams)) + width * (len(series) - 1) / 2)
     right.set_xticklabels([f"{n} robots" for n in teams])
     right.set_ylabel("share of the oracle's speed-up")
     right.set_title("tomographic merging vs known start poses", fontsize=10)
@@ -137,3 +145,19 @@ def gains_figure(
     figure.tight_layout()
     figure.savefig(path, dpi=FIGURE_DPI)
     plt.close(figure)
+
+
+def _medians(
+    teams: Sequence[int], policy: str, tables: Sequence[Table], *, pooled_: bool
+) -> dict[tuple[int, str], float]:
+    """Median time per team size and method, of one world or of several pooled."""
+    out = {}
+    for n in teams:
+        for method in STYLES:
+            cell = (
+                pooled(tables, n, policy, method)
+                if pooled_
+                else lookup(tables[0], n, policy, method)
+            )
+            out[(n, method)] = cell.median if cell is not None else math.nan
+    return out
