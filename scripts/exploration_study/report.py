@@ -13,6 +13,7 @@ from exploration_study.summary import (
     TOMOGRAPHIC,
     Cell,
     lookup,
+    on_common_seeds,
     oracle_share,
     paired_ratios,
     pooled,
@@ -59,18 +60,23 @@ def spread(cell: Cell, cap: float) -> str:
 def times_table(
     worlds: Sequence[StudyWorld], tables: dict[str, Table], policy: str, robots: Sequence[int]
 ) -> str:
-    """Per world and team size: median time to the target per method, speed-ups, the share."""
+    """Per world and team size (generated floors pooled first): median time to the target
+    per method, speed-ups, the oracle's share, false matches the merger accepted."""
     lines = [
         "| world | robots | no merging [s] | tomographic [s] | oracle [s] | speed-up, "
         "tomographic | speed-up, oracle | tomographic / oracle | share of the oracle's "
-        "speed-up | reached (none / tomo / oracle) | wrong merges |",
+        "speed-up | reached (none / tomo / oracle) | false matches accepted |",
         "|---|---:|---|---|---|---:|---:|---:|---:|---|---:|",
     ]
-    for world in worlds:
-        table = tables.get(world.label, {})
-        cap = world.steps * 0.1
+    floors = [w for w in worlds if w.generated and w.label in tables]
+    groups: list[tuple[str, list[Table], float]] = []
+    if len(floors) > 1:
+        cap = max(w.steps for w in floors) * 0.1
+        groups.append(("generated floors", [tables[w.label] for w in floors], cap))
+    groups += [(w.label, [tables.get(w.label, {})], w.steps * 0.1) for w in worlds]
+    for label, chosen, cap in groups:
         for n in robots:
-            found = [lookup(table, n, policy, m) for m in (NO_MERGE, TOMOGRAPHIC, ORACLE)]
+            found = [pooled(chosen, n, policy, m) for m in (NO_MERGE, TOMOGRAPHIC, ORACLE)]
             if all(c is None for c in found):
                 continue
             none, tomo, oracle = (c.median if c is not None else math.nan for c in found)
@@ -79,8 +85,9 @@ def times_table(
             ]
             reached = " / ".join("-" if c is None else f"{c.reached}/{len(c.times)}" for c in found)
             wrong = sum(c.gross_wrong for c in found if c is not None)
+            name = f"**{label}**" if len(chosen) > 1 else label
             lines.append(
-                f"| {world.label} | {n} | {' | '.join(cells)} | {ratio(speedup(none, tomo))} "
+                f"| {name} | {n} | {' | '.join(cells)} | {ratio(speedup(none, tomo))} "
                 f"| {ratio(speedup(none, oracle))} | {ratio(speedup(tomo, oracle))} "
                 f"| {ratio(oracle_share(none, tomo, oracle))} | {reached} | {wrong} |"
             )
@@ -94,7 +101,8 @@ def policies_table(
     robots: Sequence[int],
     method: str,
 ) -> str:
-    """Generated floors pooled: median time per policy and team size, with one method."""
+    """Generated floors pooled: median time per policy and team size, with one method, over
+    the seeds every policy ran."""
     floors = [tables[w.label] for w in worlds if w.generated and w.label in tables]
     header = " | ".join(f"{p} [s]" for p in policies)
     lines = [
@@ -103,7 +111,7 @@ def policies_table(
     ]
     cap = max((w.steps for w in worlds if w.generated), default=1500) * 0.1
     for n in robots:
-        found = [pooled(floors, n, p, method) for p in policies]
+        found = on_common_seeds([pooled(floors, n, p, method) for p in policies])
         if all(c is None for c in found):
             continue
         times = " | ".join(

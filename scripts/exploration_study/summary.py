@@ -156,3 +156,31 @@ def paired_ratios(first: Cell, second: Cell) -> list[float]:
         if seed in mine and math.isfinite(mine[seed]) and math.isfinite(time) and time > 0:
             out.append(mine[seed] / time)
     return out
+
+
+def on_common_seeds(found: Sequence[Cell | None]) -> list[Cell | None]:
+    """The cells restricted to the seeds all of them ran, so that they compare like with like
+    (a cell that is None stays None)."""
+    present = [c for c in found if c is not None]
+    if not present:
+        return list(found)
+    shared = set(present[0].seeds).intersection(*(c.seeds for c in present[1:]))
+    out: list[Cell | None] = []
+    for cell in found:
+        if cell is None:
+            out.append(None)
+            continue
+        keep = [k for k, seed in enumerate(cell.seeds) if seed in shared]
+        out.append(
+            Cell(
+                times=tuple(cell.times[k] for k in keep),
+                seeds=tuple(cell.seeds[k] for k in keep),
+                path_length=cell.path_length,
+                overlap_rate=cell.overlap_rate,
+                wrong=cell.wrong,
+                gross_wrong=cell.gross_wrong,
+                gross_wrong_confirmed=cell.gross_wrong_confirmed,
+                accepted=cell.accepted,
+            )
+        )
+    return out
