@@ -45,6 +45,7 @@ from exploration_study.report import (
     checks_markdown,
     comm_table,
     policies_table,
+    policies_verdict,
     times_table,
 )
 from exploration_study.runs import Grid, read_rows, run_world
@@ -112,6 +113,10 @@ def report(
         "## Policies (generated floors pooled, tomographic merging)",
         "",
         policies_table(worlds, tables, grid.policies, grid.robots, TOMOGRAPHIC),
+        "",
+        "Time to 90 % against the first policy's, same world, team and seed (teams of 2 and more):",
+        "",
+        policies_verdict(worlds, tables, grid.policies, grid.robots, TOMOGRAPHIC),
         "",
         "## Policies (generated floors pooled, no merging)",
         "",

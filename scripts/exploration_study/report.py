@@ -151,6 +151,37 @@ def comm_table(
     return "\n".join(lines)
 
 
+def policies_verdict(
+    worlds: Sequence[StudyWorld],
+    tables: dict[str, Table],
+    policies: Sequence[str],
+    robots: Sequence[int],
+    method: str,
+) -> str:
+    """One line per policy: the geometric mean, over every team of two or more on the
+    generated floors that both ran (same world, size and seed), of its time over the
+    first policy's, and how many of those episodes it was faster in."""
+    floors = [tables[w.label] for w in worlds if w.generated and w.label in tables]
+    if not floors or len(policies) < 2:
+        return ""
+    base = policies[0]
+    lines = []
+    for policy in policies[1:]:
+        logs = []
+        for n in (n for n in robots if n > 1):
+            first, second = pooled(floors, n, base, method), pooled(floors, n, policy, method)
+            if first is not None and second is not None:
+                logs += [math.log(r) for r in paired_ratios(second, first)]
+        if logs:
+            mean = math.exp(statistics.mean(logs))
+            faster = sum(1 for v in logs if v < 0)
+            lines.append(
+                f"- `{policy}` / `{base}`: {mean:.3f} (geometric mean over {len(logs)} "
+                f"episodes; faster in {faster})"
+            )
+    return "\n".join(lines)
+
+
 @dataclass(frozen=True, slots=True)
 class Check:
     """One acceptance check: what, the figure measured, whether it passes."""
