@@ -19,8 +19,10 @@ runs what it lacks, and anything else the grid asks for comes last):
 4. generated floors, 4 robots, the default policy, with each communication
    range of ``--comm-ranges`` (merging methods only: merging off does not
    talk);
-5. generated floors, the other policies;
-6. the rest of the grid (real maps' other team sizes and policies, ``fr079``).
+5. the other real maps (``fr079``), 4 robots, the default policy;
+6. real maps, every team size, the default policy;
+7. generated floors, the other policies;
+8. the rest of the grid (real maps' other policies).
 
 Outputs in ``--out``: the CSVs, ``study_exploration.md`` (tables and the
 acceptance checks) and two PNGs (time to 90 % against team size; speed-up of
@@ -86,6 +88,8 @@ def stages(
         out += [(w, part(grid.robots, mine)) for w in floors]
         out += [(w, part(core, mine)) for w in aces3]
         out += [(w, part(core, mine, r)) for r in comm_ranges for w in floors]
+        out += [(w, part(core, mine)) for w in real if w not in aces3]
+        out += [(w, part(grid.robots, mine)) for w in real]
     if others:
         out += [(w, part(grid.robots, others)) for w in floors]
     out += [(w, grid) for w in worlds]

@@ -136,17 +136,18 @@ def comm_table(
         "| communication range | tomographic [s] | oracle [s] | no merging [s] |",
         "|---|---|---|---|",
     ]
-    none = pooled([tables[f] for f in floors if f in tables], robots, policy, NO_MERGE)
     rows = [("unlimited", tables)] + [(f"{metres:g} m", t) for metres, t in limited.items()]
-    for name, found in rows:
-        chosen = [found[f] for f in floors if f in found]
-        cells = [pooled(chosen, robots, policy, m) for m in (TOMOGRAPHIC, ORACLE)]
-        if all(c is None for c in cells):
+    found = []  # per row, the cell of each method
+    for _, t in rows:
+        chosen = [t[f] for f in floors if f in t]
+        found.append([pooled(chosen, robots, policy, m) for m in (TOMOGRAPHIC, ORACLE)])
+    none = pooled([tables[f] for f in floors if f in tables], robots, policy, NO_MERGE)
+    flat = on_common_seeds([c for row in found for c in row] + [none])  # the seeds all ran
+    for k, (name, _) in enumerate(rows):
+        cells = [flat[2 * k], flat[2 * k + 1], flat[-1]]
+        if all(c is None for c in cells[:2]):
             continue
-        text = [
-            "-" if c is None else f"{seconds(c.median, cap)} ({spread(c, cap)})"
-            for c in [*cells, none]
-        ]
+        text = ["-" if c is None else f"{seconds(c.median, cap)} ({spread(c, cap)})" for c in cells]
         lines.append(f"| {name} | {' | '.join(text)} |")
     return "\n".join(lines)
 
