@@ -47,7 +47,7 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
         Arguments of :class:`~envs.multi_robot_exploration_v0.MultiRobotExplorationEnv`.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012  # Gymnasium API
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}  # noqa: RUF012  # Gymnasium API
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         self.team = MultiRobotExplorationEnv(render_mode=render_mode, **kwargs)

@@ -95,8 +95,18 @@ floor plan 0), ``world_size`` (width, height of a generated floor plan, metres),
 ``robots`` (3), ``max_cycles`` (1500), ``merge`` (True), ``merge_interval`` (50),
 ``method`` ("tomographic"), ``coverage_target`` (0.9), ``crop_size`` (64),
 ``crop_resolution`` (0.1 m), ``simulation`` (a ``tomosim.simulation.SimulationConfig``),
-``render_mode`` (None or "rgb_array": ground truth, team knowledge, merged map
-and robots, one pixel per truth cell).
+``render_mode`` (None, "rgb_array" or "human"; below).
+
+Rendering
+---------
+A frame shows the ground truth, what the team knows (tinted blue), the merged
+map's walls placed by the truth (magenta) and the robots, one pixel per truth
+cell. ``render_mode="rgb_array"``: ``render()`` returns it as a ``(rows, cols,
+3)`` uint8 array. ``render_mode="human"``: ``reset()``, ``step()`` and
+``render()`` draw it in a matplotlib window, at ``render_fps`` frames a
+second, and ``render()`` returns None; without a display (matplotlib's
+``Agg`` backend) the frames go to an off-screen figure instead, ``env.window.figure``,
+and no window opens. ``close()`` closes the window.
 
 Seeding
 -------
@@ -106,7 +116,7 @@ poses, odometry and lidar noise, merging) comes from streams derived from it.
 
 Version history
 ---------------
-* v0: initial version.
+* v0: initial version; ``render_mode="human"`` added (no change to the dynamics).
 """
 
 from __future__ import annotations
@@ -122,7 +132,7 @@ from pettingzoo.utils import wrappers
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from envs.observations import action_space, command, observation_space, observe, pose_bound
-from envs.rendering import render_frame
+from envs.rendering import HumanWindow, render_frame
 from merging.api import DEFAULT_METHOD
 from tomosim.episode import load_world
 from tomosim.simulation import SimulationConfig
@@ -143,7 +153,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
 
     metadata: dict[str, Any] = {  # noqa: RUF012  # PettingZoo reads the class attribute
         "name": "multi_robot_exploration_v0",
-        "render_modes": ["rgb_array"],
+        "render_modes": ["human", "rgb_array"],
         "is_parallelizable": True,
         "render_fps": 10,
     }
@@ -206,6 +216,9 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self._action_space = action_space()
         self.np_random: np.random.Generator | None = None
         self.session: TeamSession | None = None
+        self.window: HumanWindow | None = None
+        if render_mode == "human":
+            self.window = HumanWindow(self.metadata["render_fps"], title=self.metadata["name"])
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """The observation space of ``agent`` (the same object every call)."""
@@ -236,6 +249,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
         )
         self.agents = list(self.possible_agents)
+        if self.window is not None:
+            self.render()
         return self._observations(), self._infos(merged_now=False)
 
     def step(
@@ -272,6 +287,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         infos = self._infos(merged_now=merge is not None)
         if done or cut:
             self.agents = []
+        if self.window is not None:
+            self.render()
         return observations, rewards, terminations, truncations, infos
 
     def _observations(self) -> dict[str, dict[str, NDArray[Any]]]:
@@ -301,14 +318,23 @@ class MultiRobotExplorationEnv(ParallelEnv):
         return infos
 
     def render(self) -> NDArray[np.uint8] | None:
-        """The current frame as an RGB array (``render_mode="rgb_array"``), else None."""
+        """The current frame (module docstring): an RGB array for "rgb_array", else None.
+
+        With ``render_mode="human"`` the frame is drawn in the window instead.
+        """
         if self.render_mode is None or self.session is None:
             return None
-        return render_frame(self.session)
+        frame = render_frame(self.session)
+        if self.window is not None:
+            self.window.show(frame)
+            return None
+        return frame
 
     def close(self) -> None:
-        """Release the episode."""
+        """Release the episode and close the window, if any."""
         self.session = None
+        if self.window is not None:
+            self.window.close()
 
 
 def parallel_env(**kwargs: Any) -> MultiRobotExplorationEnv:

@@ -1,4 +1,4 @@
-"""``rgb_array`` frames of a team exploring: ground truth, team knowledge, merged map, robots.
+"""Frames of a team exploring: ground truth, team knowledge, merged map, robots.
 
 One pixel per truth cell, ``y`` up (the truth grid's top row at the top of the
 image):
@@ -9,9 +9,18 @@ image):
   robot's true start pose, in red: where they miss the black walls of the
   truth, the merge (or the odometry) is off;
 * each robot as a disc in its colour with a heading tick, at its true pose.
+
+:func:`render_frame` returns the frame (``render_mode="rgb_array"``);
+:class:`HumanWindow` shows it in a matplotlib window (``render_mode="human"``).
+A window needs a display: where there is none (matplotlib falls back to its
+``Agg`` backend, as on a server or in CI) the frames are drawn into an
+off-screen figure, :attr:`HumanWindow.figure`, which can be saved, and no
+window opens.
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,8 +36,9 @@ KNOWN_TINT = np.array([120, 170, 255], dtype=np.float64)
 """RGB blended over free cells the team knows."""
 KNOWN_TINT_WEIGHT = 0.35
 """Weight of :data:`KNOWN_TINT` in the blend."""
-MERGED_WALL = np.array([220, 30, 30], dtype=np.uint8)
-"""RGB of the merged map's occupied cells."""
+MERGED_WALL = np.array([200, 0, 200], dtype=np.uint8)
+"""RGB of the merged map's occupied cells: magenta, a colour no robot is drawn in
+(the recordings draw merged walls in it too)."""
 ROBOT_COLOURS = np.array(
     [
         [31, 119, 180],
@@ -127,3 +137,66 @@ def render_frame(session: TeamSession) -> NDArray[np.uint8]:
         _disc(image, centre, radius, colour)
         _segment(image, centre, tip, np.zeros(3, dtype=np.uint8))
     return np.ascontiguousarray(image[::-1])
+
+
+NON_INTERACTIVE_BACKENDS = frozenset({"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"})
+"""matplotlib backends that draw files, not windows (lower case)."""
+WINDOW_INCHES = 8.0
+"""Width of the window in inches; its height follows the world's aspect."""
+
+
+class HumanWindow:
+    """``render_mode="human"``: each frame shown in one matplotlib window (module docstring).
+
+    Parameters
+    ----------
+    fps : float
+        Frames a second the window is refreshed at (each :meth:`show` waits
+        ``1 / fps`` s for the window to draw, on an interactive backend).
+    title : str
+        The window's title.
+    """
+
+    __slots__ = ("_image", "figure", "fps", "title")
+
+    def __init__(self, fps: float, title: str) -> None:
+        if fps <= 0:
+            raise ValueError(f"fps must be positive, got {fps}")
+        self.fps = float(fps)
+        self.title = title
+        self.figure: Any = None
+        self._image: Any = None
+
+    @staticmethod
+    def interactive() -> bool:
+        """Whether matplotlib's backend opens windows (False without a display)."""
+        import matplotlib
+
+        return matplotlib.get_backend().lower() not in NON_INTERACTIVE_BACKENDS
+
+    def show(self, frame: NDArray[np.uint8]) -> None:
+        """Draw ``frame`` (rows, cols, 3) in the window, opening it on the first call."""
+        import matplotlib.pyplot as plt
+
+        if self.figure is None:
+            rows, cols = frame.shape[:2]
+            size = (WINDOW_INCHES, WINDOW_INCHES * rows / max(cols, 1))
+            self.figure, axes = plt.subplots(figsize=size, layout="constrained")
+            self.figure.canvas.manager.set_window_title(self.title)
+            axes.set_axis_off()
+            self._image = axes.imshow(frame, interpolation="nearest")
+        else:
+            self._image.set_data(frame)
+        if self.interactive():
+            plt.pause(1.0 / self.fps)  # draws and lets the window handle its events
+        else:
+            self.figure.canvas.draw()
+
+    def close(self) -> None:
+        """Close the window (safe to call twice)."""
+        if self.figure is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self.figure)
+            self.figure = None
+            self._image = None

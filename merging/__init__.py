@@ -55,4 +55,5 @@ from merging import paper as _paper  # noqa: F401
 from merging import tomographic as _tomographic  # noqa: F401
 from merging.baselines import features as _features  # noqa: F401
 from merging.baselines import registration as _registration  # noqa: F401
+from merging.baselines import ros as _ros  # noqa: F401
 from merging.baselines import spectral as _spectral  # noqa: F401

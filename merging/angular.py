@@ -22,16 +22,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import fft, ndimage
 
-ANGLE_STEP_DEG = 1.0
-"""Angular sampling of the spectra, as in the paper's sinograms."""
-MIN_FREQUENCY = 3
-"""Lowest radial frequency used, in FFT bins: below it the spectrum describes the
-map's overall extent, which differs between partial maps, not its walls."""
-MAX_FREQUENCY_FRACTION = 0.75
-"""Highest radial frequency used, as a fraction of Nyquist: above it the
-spectrum is rasterisation noise."""
-PEAK_SEPARATION_DEG = 4.0
-"""Two rotation peaks closer than this are one peak."""
+from merging.params import RotationParams
+
+DEFAULT_ROTATION = RotationParams()
+"""The default settings (sampling, frequency band, peak separation)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,13 +36,18 @@ class AngularSpectrum:
     ----------
     values : (n_angles, n_frequencies) float ndarray
         Row ``a`` is the log spectrum magnitude of the sinogram column at
-        ``α = a * ANGLE_STEP_DEG``, centred and scaled per frequency.
+        ``α = a * angle_step_deg``, centred and scaled per frequency.
+    angle_step_deg : float
+        Degrees between rows.
     """
 
     values: NDArray[np.float64]
+    angle_step_deg: float
 
 
-def angular_spectrum(image: NDArray[np.floating], *, size: int) -> AngularSpectrum:
+def angular_spectrum(
+    image: NDArray[np.floating], *, size: int, params: RotationParams = DEFAULT_ROTATION
+) -> AngularSpectrum:
     """Angular spectrum of an occupancy image (rows = y, cols = x).
 
     Parameters
@@ -58,6 +57,8 @@ def angular_spectrum(image: NDArray[np.floating], *, size: int) -> AngularSpectr
     size : int
         FFT size; both maps compared must use the same one so that a bin
         means the same spatial frequency.
+    params : RotationParams
+        Angular sampling and the band of radial frequencies used.
     """
     rows, cols = image.shape
     if rows > size or cols > size:
@@ -65,9 +66,11 @@ def angular_spectrum(image: NDArray[np.floating], *, size: int) -> AngularSpectr
     padded = np.zeros((size, size), dtype=np.float32)
     padded[:rows, :cols] = image
     magnitude = np.abs(fft.fftshift(fft.fft2(padded)))
-    n_angles = round(180.0 / ANGLE_STEP_DEG)
-    alphas = np.deg2rad(np.arange(n_angles) * ANGLE_STEP_DEG)
-    radii = np.arange(MIN_FREQUENCY, int(size // 2 * MAX_FREQUENCY_FRACTION), dtype=np.float64)
+    step = params.angle_step_deg
+    n_angles = round(180.0 / step)
+    alphas = np.deg2rad(np.arange(n_angles) * step)
+    top = int(size // 2 * params.max_frequency_fraction)
+    radii = np.arange(params.min_frequency, top, dtype=np.float64)
     centre = size // 2
     # Sample |F| at (kx, ky) = k (cos α, sin α); array axes are (ky, kx).
     kx = centre + np.outer(np.cos(alphas), radii)
@@ -77,7 +80,7 @@ def angular_spectrum(image: NDArray[np.floating], *, size: int) -> AngularSpectr
     values -= values.mean(axis=0, keepdims=True)
     norms = np.linalg.norm(values, axis=0, keepdims=True)
     values /= np.where(norms > 0, norms, 1.0)
-    return AngularSpectrum(values.astype(np.float64))
+    return AngularSpectrum(values.astype(np.float64), step)
 
 
 def rotation_correlation(first: AngularSpectrum, second: AngularSpectrum) -> NDArray[np.float64]:
@@ -86,7 +89,7 @@ def rotation_correlation(first: AngularSpectrum, second: AngularSpectrum) -> NDA
     Returns
     -------
     (n_angles,) float ndarray
-        ``C`` at ``φ = a * ANGLE_STEP_DEG`` for ``a = 0..n_angles-1``; it peaks
+        ``C`` at ``φ = a * angle_step_deg`` for ``a = 0..n_angles-1``; it peaks
         where map 2's structure is map 1's rotated counter-clockwise by φ.
     """
     spectrum1 = fft.rfft(first.values, axis=0)
@@ -95,8 +98,17 @@ def rotation_correlation(first: AngularSpectrum, second: AngularSpectrum) -> NDA
     return np.asarray(per_frequency.sum(axis=1) / first.values.shape[1], dtype=np.float64)
 
 
-def rotation_peaks(correlation: NDArray[np.float64], *, count: int) -> list[tuple[float, float]]:
+def rotation_peaks(
+    correlation: NDArray[np.float64],
+    *,
+    count: int,
+    angle_step_deg: float = DEFAULT_ROTATION.angle_step_deg,
+    separation_deg: float = DEFAULT_ROTATION.peak_separation_deg,
+) -> list[tuple[float, float]]:
     """The ``count`` strongest local maxima of a circular correlation.
+
+    Samples are ``angle_step_deg`` apart; maxima closer than
+    ``separation_deg`` to a stronger one are dropped.
 
     Returns
     -------
@@ -108,19 +120,17 @@ def rotation_peaks(correlation: NDArray[np.float64], *, count: int) -> list[tupl
     left, right = np.roll(correlation, 1), np.roll(correlation, -1)
     maxima = np.flatnonzero((correlation >= left) & (correlation > right))
     order = maxima[np.argsort(correlation[maxima])[::-1]]
-    separation = PEAK_SEPARATION_DEG / ANGLE_STEP_DEG
+    separation = separation_deg / angle_step_deg
+    kept: list[float] = []  # peak positions in samples, sub-sample refined
     peaks: list[tuple[float, float]] = []
     for index in order:
-        if any(min(abs(index - p), n - abs(index - p)) < separation for p, _ in _indices(peaks)):
+        if any(min(abs(index - p), n - abs(index - p)) < separation for p in kept):
             continue
         y0, y1, y2 = correlation[index - 1], correlation[index], correlation[(index + 1) % n]
         curvature = y0 - 2 * y1 + y2
         offset = 0.5 * (y0 - y2) / curvature if curvature < 0 else 0.0
-        peaks.append(((index + offset) * ANGLE_STEP_DEG, float(y1)))
+        kept.append(index + offset)
+        peaks.append(((index + offset) * angle_step_deg, float(y1)))
         if len(peaks) == count:
             break
     return peaks
-
-
-def _indices(peaks: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    return [(angle / ANGLE_STEP_DEG, value) for angle, value in peaks]

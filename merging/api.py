@@ -1,7 +1,9 @@
 """The public entry point: ``estimate_transform`` and its registry of methods.
 
 Every method is a function ``(cells1, cells2, *, rng, **options) -> MergeResult``
-taking two validated ``int8`` grids. :func:`estimate_transform` validates the
+taking two validated ``int8`` grids; a method with a settings object (the
+default's :class:`~merging.params.TomographicParams`) is registered with its
+type and also takes ``params=``. :func:`estimate_transform` validates the
 input, dispatches, and fills in what is common to all methods (the transform
 in metres, the total time, the empty-map guard).
 """
@@ -10,12 +12,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid, occupied_mask, validate_cells
+from merging.resample import to_resolution
 from merging.result import MergeResult
 from merging.transforms import cells_to_metres
 
@@ -41,15 +45,23 @@ class MergeMethod(Protocol):
 
 
 _METHODS: dict[str, MergeMethod] = {}
+_PARAMS_TYPES: dict[str, type | None] = {}
 
 
-def register_method(name: str) -> Callable[[MergeMethod], MergeMethod]:
-    """Decorator registering a merging method under ``name``."""
+def register_method(
+    name: str, *, params_type: type | None = None
+) -> Callable[[MergeMethod], MergeMethod]:
+    """Decorator registering a merging method under ``name``.
+
+    ``params_type`` is the type of the settings object the method takes as
+    ``params=`` (None: it takes none).
+    """
 
     def decorate(function: MergeMethod) -> MergeMethod:
         if name in _METHODS:
             raise ValueError(f"a merging method named {name!r} is already registered")
         _METHODS[name] = function
+        _PARAMS_TYPES[name] = params_type
         return function
 
     return decorate
@@ -79,6 +91,7 @@ def estimate_transform(
     *,
     method: str = DEFAULT_METHOD,
     rng: RngLike = None,
+    params: object | None = None,
     **options: Any,
 ) -> MergeResult:
     """Estimate the transform taking ``map2``'s cells onto ``map1``'s.
@@ -93,6 +106,10 @@ def estimate_transform(
         the baselines.
     rng : numpy.random.Generator, int or None
         Randomness for methods that sample (the paper's Monte-Carlo step).
+    params : object, optional
+        The method's settings object, for a method that has one: a
+        :class:`merging.params.TomographicParams` for ``"tomographic"``
+        (default: its documented defaults).
     **options
         Passed to the method.
 
@@ -107,8 +124,16 @@ def estimate_transform(
     Raises
     ------
     TypeError, ValueError
-        For input that is not a grid in the ROS coding, or grids of different
-        resolutions.
+        For input that is not a grid in the ROS coding, an unknown method,
+        or a ``params`` object the method does not take.
+
+    Notes
+    -----
+    Two :class:`OccupancyGrid` of different resolutions are merged by
+    coarsening the finer one to the coarser resolution
+    (:mod:`merging.resample`) for the search; ``matrix`` still takes map 2's
+    own cells to map 1's own cells, so it then scales by the ratio of the
+    resolutions, and ``matrix_metres`` is rigid.
 
     References
     ----------
@@ -119,12 +144,16 @@ def estimate_transform(
     cells1 = validate_cells(map1, name="map1")
     cells2 = validate_cells(map2, name="map2")
     check_method(method)
+    if params is not None:
+        _check_params(method, params)
+        options = {**options, "params": params}
     both_grids = isinstance(map1, OccupancyGrid) and isinstance(map2, OccupancyGrid)
-    if both_grids and not np.isclose(map1.resolution, map2.resolution):  # type: ignore[union-attr]
-        raise ValueError(
-            f"map resolutions differ ({map1.resolution} m vs {map2.resolution} m); "  # type: ignore[union-attr]
-            "resample one map to the other's resolution first"
-        )
+    # Maps of different resolutions: the finer one is coarsened to the other's,
+    # the method runs on the pair, and its matrix is carried back to the
+    # original cells (where it then scales by the ratio of the resolutions).
+    to_search1, to_search2 = np.eye(3), np.eye(3)
+    if both_grids:
+        (cells1, to_search1), (cells2, to_search2) = _common_resolution(map1, map2)  # type: ignore[arg-type]
     generator = np.random.default_rng(rng)
     counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
     if min(counts) < MIN_OCCUPIED_CELLS:
@@ -140,14 +169,49 @@ def estimate_transform(
         result = _METHODS[method](cells1, cells2, rng=generator, **options)
     timings = dict(result.timings)
     timings["total"] = time.perf_counter() - start
-    metres = cells_to_metres(result.matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
+    matrix = np.linalg.inv(to_search1) @ result.matrix @ to_search2
+    metres = cells_to_metres(matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
     return MergeResult(
-        matrix=result.matrix,
+        matrix=matrix,
         confidence=float(np.clip(result.confidence, 0.0, 1.0)),
         accepted=bool(result.accepted),
         method=method,
         matrix_metres=metres,
-        hypotheses=result.hypotheses,
+        hypotheses=tuple(
+            replace(h, matrix=np.linalg.inv(to_search1) @ h.matrix @ to_search2)
+            for h in result.hypotheses
+        ),
         timings=timings,
         reason=result.reason,
+        evidence=dict(result.evidence),
     )
+
+
+def _common_resolution(
+    map1: OccupancyGrid, map2: OccupancyGrid
+) -> tuple[
+    tuple[NDArray[np.int8], NDArray[np.float64]], tuple[NDArray[np.int8], NDArray[np.float64]]
+]:
+    """Both grids' cells at the coarser of their resolutions, each with the matrix to them."""
+    coarser = max(map1.resolution, map2.resolution)
+    out = []
+    for grid in (map1, map2):
+        resampled, matrix = to_resolution(grid, coarser)
+        out.append((resampled.data, matrix))
+    return out[0], out[1]
+
+
+def _check_params(method: str, params: object) -> None:
+    """Raise ``TypeError`` unless ``params`` is the settings type ``method`` takes."""
+    wanted = _PARAMS_TYPES[method]
+    if wanted is None:
+        with_params = sorted(name for name, kind in _PARAMS_TYPES.items() if kind is not None)
+        raise TypeError(
+            f"the {method!r} method takes no params object (got {type(params).__name__}); "
+            f"only {with_params} take one"
+        )
+    if not isinstance(params, wanted):
+        raise TypeError(
+            f"params for the {method!r} method must be a {wanted.__name__}, "
+            f"got {type(params).__name__}"
+        )

@@ -23,18 +23,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import fft, ndimage
 
+from merging.params import TranslationParams
 from merging.transforms import rigid_matrix
 from merging.verify import PreparedMap
 
-COARSE_CELLS = 160
-"""Largest side of the coarse grid: bounds the FFT size (and the time) for any map."""
-WALL_BLUR = 0.7
-"""Gaussian blur, in coarse cells, of map 1's walls: a 1-2° rotation error moves
-far walls by about one coarse cell."""
-FREE_PENALTY = 0.5
-"""Weight of map 1's clear free space in the target, relative to a wall."""
-PEAK_SUPPRESSION = 2
-"""Coarse cells around a translation peak within which weaker peaks are dropped."""
+DEFAULT_TRANSLATION = TranslationParams()
+"""The default settings (coarse grid size, blur, free-space penalty, peaks)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,7 +40,7 @@ class CoarseMap:
     factor : int
         Cells per block side.
     target : (rows, cols) float32 ndarray
-        Correlation target: blurred walls minus ``FREE_PENALTY`` times the
+        Correlation target: blurred walls minus ``free_penalty`` times the
         fraction of the block that is clear free space.
     walls : (rows, cols) float32 ndarray
         1 where a block holds an occupied cell.
@@ -60,13 +54,17 @@ class CoarseMap:
     points: NDArray[np.float64]
 
 
-def coarse_factor(*shapes: tuple[int, int]) -> int:
-    """Block size making the largest map at most :data:`COARSE_CELLS` blocks a side."""
+def coarse_factor(
+    *shapes: tuple[int, int], coarse_cells: int = DEFAULT_TRANSLATION.coarse_cells
+) -> int:
+    """Block size making the largest map at most ``coarse_cells`` blocks a side."""
     largest = max(max(shape) for shape in shapes)
-    return max(1, int(np.ceil(largest / COARSE_CELLS)))
+    return max(1, int(np.ceil(largest / coarse_cells)))
 
 
-def coarsen(prepared: PreparedMap, factor: int) -> CoarseMap:
+def coarsen(
+    prepared: PreparedMap, factor: int, *, params: TranslationParams = DEFAULT_TRANSLATION
+) -> CoarseMap:
     """Reduce a prepared map to its coarse correlation images.
 
     A block is a wall block when any of its cells is occupied (walls are
@@ -83,16 +81,21 @@ def coarsen(prepared: PreparedMap, factor: int) -> CoarseMap:
     centre = factor // 2
     sampled = prepared.clear_free[centre::factor, centre::factor]
     clear[: sampled.shape[0], : sampled.shape[1]] = sampled
-    blurred = ndimage.gaussian_filter(walls, WALL_BLUR)
+    blurred = ndimage.gaussian_filter(walls, params.wall_blur)
     blurred /= max(float(blurred.max()), 1e-9)
-    target = (blurred - FREE_PENALTY * clear).astype(np.float32)
+    target = (blurred - params.free_penalty * clear).astype(np.float32)
     wall_rows, wall_cols = np.nonzero(walls)
     points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
     return CoarseMap(factor, target, walls, points)
 
 
 def translation_peaks(
-    first: CoarseMap, second: CoarseMap, theta: float, *, count: int
+    first: CoarseMap,
+    second: CoarseMap,
+    theta: float,
+    *,
+    count: int,
+    suppression: int = DEFAULT_TRANSLATION.peak_suppression,
 ) -> list[tuple[NDArray[np.float64], float]]:
     """Best translations of ``second``, rotated by ``theta``, onto ``first``.
 
@@ -104,6 +107,8 @@ def translation_peaks(
         Rotation (radians, counter-clockwise) applied to map 2's cells.
     count : int
         Peaks to return.
+    suppression : int
+        Coarse cells around a peak within which weaker peaks are dropped.
 
     Returns
     -------
@@ -143,8 +148,7 @@ def translation_peaks(
         shift_x = col if col < cols_a else col - size[1]
         coarse = rigid_matrix(shift_x - low[0], shift_y - low[1], theta)
         peaks.append((scale @ coarse @ to_coarse, value / mass))
-        r0, c0 = row - PEAK_SUPPRESSION, col - PEAK_SUPPRESSION
-        rows_idx = np.arange(r0, row + PEAK_SUPPRESSION + 1) % size[0]
-        cols_idx = np.arange(c0, col + PEAK_SUPPRESSION + 1) % size[1]
+        rows_idx = np.arange(row - suppression, row + suppression + 1) % size[0]
+        cols_idx = np.arange(col - suppression, col + suppression + 1) % size[1]
         surface[np.ix_(rows_idx, cols_idx)] = -np.inf
     return peaks

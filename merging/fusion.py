@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid, validate_cells
+from merging.resample import to_resolution
 from merging.transforms import apply_transform
 from merging.warp import warp_cells
 
@@ -133,8 +134,10 @@ def fuse(
         to the common frame's cells; None leaves the map out.
     frame : OccupancyGrid, optional
         The grid whose cells the common frame is; it gives the fused grid its
-        resolution and (shifted) origin. Every OccupancyGrid in ``maps`` must
-        have its resolution.
+        resolution and (shifted) origin. An OccupancyGrid in ``maps`` of
+        another resolution needs a matrix that scales by the ratio of the
+        resolutions (as :func:`merging.estimate_transform` gives); a finer
+        one is coarsened to the frame's resolution before it is laid in.
 
     Returns
     -------
@@ -155,13 +158,8 @@ def fuse(
     if frame is not None:
         for k in used:
             item = maps[k]
-            if isinstance(item, OccupancyGrid) and not np.isclose(
-                item.resolution, frame.resolution
-            ):
-                raise ValueError(
-                    f"maps[{k}] has resolution {item.resolution} m but the frame has "
-                    f"{frame.resolution} m; resample it first"
-                )
+            if isinstance(item, OccupancyGrid):
+                cells[k], moves[k] = _at_frame_resolution(item, moves[k], frame, name=f"maps[{k}]")
     boxes = {k: _cell_box(cells[k].shape, moves[k]) for k in used}
     low = np.min([b[0] for b in boxes.values()], axis=0)
     high = np.max([b[1] for b in boxes.values()], axis=0)
@@ -192,6 +190,36 @@ def fuse(
         origin = (ox + float(shift[0]), oy + float(shift[1]), yaw)
         fused_grid = OccupancyGrid(canvas, resolution=frame.resolution, origin=origin)
     return FusedMap(cells=canvas, offset=offset, to_fused=to_fused, grid=fused_grid)
+
+
+SCALE_TOLERANCE = 0.01
+"""Relative difference allowed between a matrix's scale and the ratio of two grids'
+resolutions: estimated similarity transforms are not exact."""
+
+
+def _at_frame_resolution(
+    grid: OccupancyGrid, matrix: NDArray[np.float64], frame: OccupancyGrid, *, name: str
+) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
+    """The grid's cells and matrix ready to warp into ``frame``'s cells.
+
+    A grid of another resolution than the frame's must come with a matrix
+    that scales by the ratio (as :func:`merging.estimate_transform` returns
+    it); a finer grid is first coarsened to the frame's resolution
+    (:func:`merging.resample.to_resolution`), so that warping it keeps its
+    thin walls.
+    """
+    ratio = grid.resolution / frame.resolution
+    scale = float(np.sqrt(abs(np.linalg.det(matrix[:2, :2]))))
+    if abs(scale - ratio) > SCALE_TOLERANCE * ratio:
+        raise ValueError(
+            f"{name} has resolution {grid.resolution} m and the frame {frame.resolution} m, "
+            f"so its matrix must scale by {ratio:.4g}, but it scales by {scale:.4g}; "
+            "use the matrix merging.estimate_transform returns for the two grids"
+        )
+    if ratio >= 1.0 - SCALE_TOLERANCE:
+        return grid.data, matrix
+    coarse, to_coarse = to_resolution(grid, frame.resolution)
+    return coarse.data, matrix @ np.linalg.inv(to_coarse)
 
 
 def merge(

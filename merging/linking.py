@@ -322,7 +322,10 @@ def _check_grids(grids: Sequence[OccupancyGrid | NDArray[Any]]) -> list[NDArray[
     resolutions = {k: g.resolution for k, g in enumerate(grids) if isinstance(g, OccupancyGrid)}
     if resolutions and not np.allclose(list(resolutions.values()), min(resolutions.values())):
         listed = ", ".join(f"grids[{k}] {r} m" for k, r in resolutions.items())
-        raise ValueError(f"resolutions differ ({listed}); resample the grids to one resolution")
+        raise ValueError(
+            f"resolutions differ ({listed}); bring them to one with "
+            "merging.resample.common_resolution"
+        )
     return cells
 
 

@@ -12,7 +12,9 @@ functions flip rows. Pixel values are interpreted as ``map_server`` does:
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 import yaml
@@ -25,6 +27,68 @@ MODES = ("trinary", "scale", "raw")
 """The ``mode`` values ``map_server`` understands."""
 PIXEL_OCCUPIED, PIXEL_UNKNOWN, PIXEL_FREE = 0, 205, 254
 """Grey levels ``map_saver`` writes in trinary mode."""
+MAX_YAML_BYTES = 64 * 1024
+"""Largest map YAML read: a map_server YAML is a dozen short lines; this leaves
+room for long comments and refuses anything that cannot be one."""
+IMAGE_SIGNATURES = (
+    (b"\x89PNG", "PNG"),
+    (b"P5\n", "PGM"),
+    (b"P5 ", "PGM"),
+    (b"P2\n", "PGM"),
+    (b"P2 ", "PGM"),
+    (b"\xff\xd8\xff", "JPEG"),
+    (b"GIF8", "GIF"),
+    (b"II*\x00", "TIFF"),
+    (b"MM\x00*", "TIFF"),
+)
+"""First bytes of the image formats a map's image comes in, to name the mistake
+of passing the image instead of its YAML."""
+FORMATS = {"pgm": "PPM", "png": "PNG"}
+"""Pillow's format name for each image suffix :func:`save_map` writes."""
+
+
+class _NoAliasLoader(yaml.SafeLoader):
+    """PyYAML's safe loader without aliases: ``*name`` is refused, not expanded.
+
+    ``map_server`` files never need aliases, and a few hundred bytes of nested
+    aliases expand to gigabytes ("billion laughs").
+    """
+
+    def compose_node(self, parent: yaml.Node | None, index: object) -> yaml.Node | None:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise yaml.composer.ComposerError(
+                None, None, "aliases are not allowed in a map_server file", event.start_mark
+            )
+        return super().compose_node(parent, index)
+
+
+def _read_yaml(path: Path) -> object:
+    """The YAML document in ``path``, refusing what no map_server YAML is (ValueError)."""
+    size = path.stat().st_size
+    if size > MAX_YAML_BYTES:
+        raise ValueError(
+            f"{path} is {size} bytes, too large for a map_server YAML file (at most "
+            f"{MAX_YAML_BYTES}); pass the .yaml file that names the map's image"
+        )
+    raw = path.read_bytes()
+    for signature, kind in IMAGE_SIGNATURES:
+        if raw.startswith(signature):
+            raise ValueError(
+                f"{path} is a {kind} image, not a map_server YAML file; "
+                "pass the .yaml file that names it"
+            )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{path} is not a text file (byte {exc.start} is not UTF-8), so not a map_server "
+            "YAML file; pass the map's .yaml file"
+        ) from exc
+    try:
+        return yaml.load(text, Loader=_NoAliasLoader)  # a safe loader that refuses aliases
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path} is not valid YAML: {' '.join(str(exc).split())}") from exc
 
 
 def load_map(yaml_path: str | Path) -> OccupancyGrid:
@@ -44,15 +108,14 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     FileNotFoundError
         If the YAML file or its image does not exist.
     ValueError
-        If the YAML is malformed or lacks a required key.
+        If the YAML is malformed, lacks a required key, is not text (an image
+        passed by mistake), is larger than :data:`MAX_YAML_BYTES` or uses YAML
+        aliases (refused rather than expanded).
     """
     path = Path(yaml_path)
     if not path.is_file():
         raise FileNotFoundError(f"map file not found: {path}")
-    try:
-        meta = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{path} is not valid YAML: {exc}") from exc
+    meta = _read_yaml(path)
     if not isinstance(meta, dict):
         raise ValueError(f"{path} must be a YAML mapping with image, resolution and origin")
     missing = [key for key in ("image", "resolution", "origin") if key not in meta]
@@ -119,22 +182,35 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
     everything else grey (205), so :func:`load_map` reads the grid back exactly
     when it holds only -1, 0 and 100.
 
+    The pair is written whole or not at all: both files go to temporary files
+    beside their targets first and replace them only once both are complete,
+    the image then the YAML, so that a failed write (a full disk, a folder
+    without write permission) leaves an existing pair as it was. The folder
+    must exist.
+
     Returns
     -------
     Path
         The image file written beside the YAML.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the YAML's folder does not exist.
+    OSError
+        If a file cannot be written (nothing is replaced then).
     """
     if not isinstance(grid, OccupancyGrid):
         raise TypeError(f"grid must be an OccupancyGrid, got {type(grid).__name__}")
-    if image_format not in ("pgm", "png"):
+    if image_format not in FORMATS:
         raise ValueError(f"image_format must be 'pgm' or 'png', got {image_format!r}")
     path = Path(yaml_path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"cannot write {path}: folder {path.parent} does not exist")
     image_path = path.with_suffix(f".{image_format}")
     pixels = np.full(grid.shape, PIXEL_UNKNOWN, dtype=np.uint8)
     pixels[grid.free()] = PIXEL_FREE
     pixels[grid.occupied()] = PIXEL_OCCUPIED
-    Image.fromarray(pixels[::-1]).save(image_path)
     meta = {
         "image": image_path.name,
         "resolution": float(grid.resolution),
@@ -144,5 +220,34 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
         "free_thresh": 0.196,
         "mode": "trinary",
     }
-    path.write_text(yaml.safe_dump(meta, sort_keys=False))
+    image_partial = _partial(image_path)
+    yaml_partial = _partial(path)
+    try:
+        with image_partial.open("wb") as handle:
+            Image.fromarray(pixels[::-1]).save(handle, format=FORMATS[image_format])
+            _sync(handle)
+        _write_text(yaml_partial, yaml.safe_dump(meta, sort_keys=False))
+        image_partial.replace(image_path)
+        yaml_partial.replace(path)
+    finally:
+        image_partial.unlink(missing_ok=True)
+        yaml_partial.unlink(missing_ok=True)
     return image_path
+
+
+def _partial(path: Path) -> Path:
+    """A temporary name beside ``path`` (hidden, unique to this process)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+
+
+def _sync(handle: IO[bytes]) -> None:
+    """Push ``handle``'s bytes to the disk, so that a rename after it publishes whole files."""
+    handle.flush()
+    os.fsync(handle.fileno())
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` and sync it (the YAML half of :func:`save_map`)."""
+    with path.open("wb") as handle:
+        handle.write(text.encode("utf-8"))
+        _sync(handle)

@@ -28,7 +28,8 @@ from merging.refine import SmoothedMap, constraint_strength
 from merging.result import Hypothesis, MergeResult
 from merging.sinogram import Sinogram, map_centre, sinogram
 from merging.transforms import rigid_matrix, translation_matrix
-from merging.verify import ACCEPT_CONFIDENCE, confidence, prepare_map, verify
+from merging.verdict import CLOSE_FACTORS, refusal_reason
+from merging.verify import ACCEPT_CONFIDENCE, confidence_factors, prepare_map, verify
 
 PAPER_ANGLES_DEG = np.arange(181.0)
 """0° <= α <= 180° (eqs. 4-5, 9), inclusive: eqs. (12) and (16) use α' = 180°."""
@@ -202,17 +203,13 @@ def paper_merge(
     first, second = prepare_map(cells1), prepare_map(cells2)
     check = verify(first, second, best)
     strength = constraint_strength(SmoothedMap(first.walls, first.shape), second, best)
-    score = confidence(check, None, strength=strength)
+    factors = confidence_factors(check, None, strength=strength)
+    score = float(np.prod(factors))
     timings["verify"] = time.perf_counter() - clock
     accepted = score >= ACCEPT_CONFIDENCE
-    reason = (
-        ""
-        if accepted
-        else (
-            f"confidence {score:.2f} below {ACCEPT_CONFIDENCE}: agreement {check.agreement:.2f}, "
-            f"conflict {check.conflict:.2f}, constraint {strength:.1f}"
-        )
-    )
+    evidence = {"agreement": check.agreement, "conflict": check.conflict, "strength": strength}
+    evidence.update({f"close_{name}": f for name, f in zip(CLOSE_FACTORS, factors, strict=True)})
+    reason = "" if accepted else refusal_reason(factors, {}, evidence)
     return MergeResult(
         matrix=best,
         confidence=score,
@@ -223,6 +220,7 @@ def paper_merge(
         ),
         timings=timings,
         reason=reason,
+        evidence=evidence,
     )
 
 

@@ -23,43 +23,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from merging.params import FROM_START, GaussNewtonParams
 from merging.transforms import apply_transform, rotation_about
 from merging.verify import PreparedMap
 
-SIGMA_SCHEDULE = (2.0, 1.0, 0.6)
-"""Field widths in cells, widest first: 2 cells catches a coarse estimate a few
-cells off; 1 cell pins the optimum to a fraction of a cell; 0.6 cell resolves
-the last tenth of a cell (the median error halves, to about 0.1 cell)."""
-CURVATURE_SIGMA = 1.0
-"""Field width on which :func:`constraint_strength` measures curvature (its
-scale, ``STRENGTH_SCALE`` in :mod:`merging.verify`, was set on this width)."""
-ITERATIONS = 5
-"""Gauss-Newton steps per field width at most, by default."""
-SHARP_ITERATIONS = 10
-"""Steps allowed on the sharpest field for a final answer: converging the last
-tenth of a degree over a map 1000 cells wide takes a few more."""
-NEWTON_FACTOR = 2.0
-"""Step multiplier turning the half-way Gauss-Newton step into Newton's step."""
-BACKTRACKS = 2
-"""Times a step is halved when it lowers the objective, before giving up."""
-DAMPING = 1e-3
-"""Levenberg damping, relative to the mean diagonal of the normal matrix."""
-MAX_STEP_CELLS = 3.0
-"""A longer step is shortened: the linearisation holds only near walls."""
-CONVERGED_CELLS = 0.05
-"""A step moving map 2's cells less than this (in translation and, RMS, in
-rotation) ends a stage: far below the 2-cell accuracy asked for."""
-
-
-REFINE_POINTS = 1500
-"""Map 2 cells moved per iteration: three unknowns need far fewer, but walls in
-every direction must be represented."""
-LOCAL_MARGIN = 4.0
-"""Cells beyond where map 2 lands that a local field covers: room for the
-last steps of a refinement that starts within a cell or so."""
-DOWNSAMPLE_FROM_SIGMA = 2.0
-"""Fields at least this wide are computed on a grid of half resolution: a blur
-of two cells has nothing finer to keep, and it costs a quarter."""
+DEFAULT_GAUSS_NEWTON = GaussNewtonParams()
+"""The default step control, field and curvature settings."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,6 +43,7 @@ class Field:
     image: NDArray[np.float32]
     scale: float
     corner: tuple[int, int] = (0, 0)
+    sigma: float = 1.0
 
     def locate(self, cells: NDArray[np.float64]) -> NDArray[np.float64]:
         """Image coordinates of ``(N, 2)`` cell coordinates of map 1."""
@@ -89,13 +59,26 @@ class SmoothedMap:
         ``(x, y)`` of map 1's occupied cells.
     shape : (rows, cols)
         Map 1's shape.
+    downsample_from_sigma : float
+        Fields at least this wide (cells) are computed at a coarser resolution.
+    whole_field_share : float
+        Share of the map above which a local field is the whole map's.
     """
 
-    __slots__ = ("_fields", "_shape", "_walls")
+    __slots__ = ("_downsample_from", "_fields", "_shape", "_walls", "_whole_share")
 
-    def __init__(self, walls: NDArray[np.float64], shape: tuple[int, int]) -> None:
+    def __init__(
+        self,
+        walls: NDArray[np.float64],
+        shape: tuple[int, int],
+        *,
+        downsample_from_sigma: float = DEFAULT_GAUSS_NEWTON.downsample_from_sigma,
+        whole_field_share: float = DEFAULT_GAUSS_NEWTON.whole_field_share,
+    ) -> None:
         self._walls = walls
         self._shape = shape
+        self._downsample_from = downsample_from_sigma
+        self._whole_share = whole_field_share
         self._fields: dict[float, Field] = {}
 
     @property
@@ -108,11 +91,17 @@ class SmoothedMap:
 
         ``box = (x_lo, y_lo, x_hi, y_hi)`` in cells (exclusive upper bounds)
         computes the field of that part only, uncached: cheaper when only
-        the overlap matters.
+        the overlap matters. A box covering more than ``whole_field_share``
+        of the map takes the whole map's field instead, computed once for
+        every candidate and the curvature.
         """
+        if box is not None:
+            x_lo, y_lo, x_hi, y_hi = box
+            if (x_hi - x_lo) * (y_hi - y_lo) > self._whole_share * self._shape[0] * self._shape[1]:
+                box = None
         if box is None and sigma in self._fields:
             return self._fields[sigma]
-        scale = 2.0 if sigma >= DOWNSAMPLE_FROM_SIGMA else 1.0
+        scale = field_scale(sigma, self._downsample_from)
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
         image = np.zeros((max(rows, 1), max(cols, 1)), dtype=np.float32)
@@ -131,10 +120,23 @@ class SmoothedMap:
         # Scaled so that the centre of a one-cell wall is about 1.
         smooth = ndimage.gaussian_filter(image, width, truncate=3.0)
         smooth *= np.float32(np.sqrt(2 * np.pi) * width)
-        field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo))
+        field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo), sigma)
         if box is None:
             self._fields[sigma] = field
         return field
+
+
+def field_scale(sigma: float, downsample_from: float) -> float:
+    """Cells per field pixel for a field of width ``sigma``: 1 below ``downsample_from``.
+
+    From ``downsample_from`` on, the largest power of two not above ``sigma``
+    (at least 2): a blur of ``sigma`` cells has nothing finer to keep, and the
+    field of a coarse-to-fine search's widest stage then costs as much on a
+    4000-cell map as on a 400-cell one.
+    """
+    if sigma < downsample_from:
+        return 1.0
+    return float(max(2.0, 2.0 ** np.floor(np.log2(sigma))))
 
 
 def _bilinear(
@@ -175,10 +177,11 @@ def refine_transform(
     second: PreparedMap,
     matrix: NDArray[np.float64],
     *,
-    sigmas: tuple[float, ...] = SIGMA_SCHEDULE,
-    iterations: int = ITERATIONS,
+    sigmas: tuple[float, ...] = FROM_START.sigmas,
+    iterations: int = FROM_START.iterations,
     local: bool = False,
-    max_points: int = REFINE_POINTS,
+    max_points: int = FROM_START.points,
+    params: GaussNewtonParams = DEFAULT_GAUSS_NEWTON,
 ) -> NDArray[np.float64]:
     """Refine ``matrix`` (map 2 cells -> map 1 cells) to sub-cell accuracy.
 
@@ -187,7 +190,7 @@ def refine_transform(
     smoothed : SmoothedMap
         Map 1's fields.
     second : PreparedMap
-        Map 2; up to :data:`REFINE_POINTS` of its occupied cells are moved.
+        Map 2; up to ``max_points`` of its occupied cells are moved.
     matrix : (3, 3) float ndarray
         Starting transform.
     sigmas : tuple of float
@@ -196,9 +199,11 @@ def refine_transform(
         Gauss-Newton steps per width at most.
     local : bool
         Blur only the part of map 1 where map 2's cells land (plus
-        :data:`LOCAL_MARGIN`): for a start already within a cell or so.
+        ``params.local_margin``): for a start already within a cell or so.
     max_points : int
         Map 2 cells moved at most.
+    params : GaussNewtonParams
+        Step control and the local field's margin.
 
     Returns
     -------
@@ -209,20 +214,25 @@ def refine_transform(
     stride = max(1, int(np.ceil(len(second.points) / max_points)))
     points = second.points[::stride]
     for sigma in sigmas:
-        box = _landing_box(current, points, smoothed, sigma) if local else None
+        box = _landing_box(current, points, smoothed, sigma, params.local_margin) if local else None
         if local and box is None:
             return current
-        current = _gauss_newton(smoothed.field(sigma, box=box), points, current, iterations)
+        field = smoothed.field(sigma, box=box)
+        current = _gauss_newton(field, points, current, iterations, params)
     return current
 
 
 def _landing_box(
-    matrix: NDArray[np.float64], points: NDArray[np.float64], smoothed: SmoothedMap, sigma: float
+    matrix: NDArray[np.float64],
+    points: NDArray[np.float64],
+    smoothed: SmoothedMap,
+    sigma: float,
+    margin_cells: float,
 ) -> tuple[int, int, int, int] | None:
-    """Cells of map 1 where ``points`` land, grown by the blur and :data:`LOCAL_MARGIN`."""
+    """Cells of map 1 where ``points`` land, grown by the blur and ``margin_cells``."""
     rows, cols = smoothed.shape
     landed = apply_transform(matrix, points)
-    margin = LOCAL_MARGIN + 3.0 * sigma
+    margin = margin_cells + 3.0 * sigma
     x_lo = max(int(np.floor(landed[:, 0].min() - margin)), 0)
     y_lo = max(int(np.floor(landed[:, 1].min() - margin)), 0)
     x_hi = min(int(np.ceil(landed[:, 0].max() + margin)) + 1, cols)
@@ -237,11 +247,12 @@ def _gauss_newton(
     points: NDArray[np.float64],
     start: NDArray[np.float64],
     iterations: int,
+    params: GaussNewtonParams,
 ) -> NDArray[np.float64]:
     """Newton-length Gauss-Newton steps on one field; each evaluation also checks the last step.
 
     A step that lowers ``Σ M`` is taken back and halved (at most
-    :data:`BACKTRACKS` times in a row); the best transform seen is returned.
+    ``params.backtracks`` times in a row); the best transform seen is returned.
     """
     image, scale = field.image, field.scale
     best, best_total = start, -np.inf
@@ -249,7 +260,7 @@ def _gauss_newton(
     step = np.zeros(3)
     pivot = np.zeros(2)
     halvings = 0
-    for _ in range(iterations + BACKTRACKS):
+    for _ in range(iterations + params.backtracks):
         landed = apply_transform(current, points)
         moved = field.locate(landed)
         ok = _inside(moved, image)
@@ -258,7 +269,7 @@ def _gauss_newton(
         value, gx, gy = _bilinear(image, moved[ok, 0], moved[ok, 1])
         total = float(value.sum())
         if total <= best_total:
-            if halvings == BACKTRACKS:
+            if halvings == params.backtracks:
                 break
             step /= 2
             halvings += 1
@@ -268,15 +279,21 @@ def _gauss_newton(
         gx, gy = gx / scale, gy / scale
         pivot = landed[ok].mean(axis=0)
         rel = landed[ok] - pivot
-        jacobian = np.column_stack([gx, gy, -gx * rel[:, 1] + gy * rel[:, 0]])
+        # The rotation unknown is measured in cells of RMS motion (turn times the
+        # RMS radius), like the translation, so that damping and step limits
+        # treat all three alike on a map of any size.
+        radius = float(np.sqrt(np.mean(np.sum(rel**2, axis=1)))) + 1e-9
+        jacobian = np.column_stack([gx, gy, (-gx * rel[:, 1] + gy * rel[:, 0]) / radius])
         normal = jacobian.T @ jacobian
-        normal += DAMPING * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
-        step = NEWTON_FACTOR * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
-        length = float(np.hypot(step[0], step[1]))
-        if length > MAX_STEP_CELLS:
-            step *= MAX_STEP_CELLS / length
-        if length < CONVERGED_CELLS and abs(step[2]) * np.sqrt(np.mean(rel**2)) < CONVERGED_CELLS:
+        normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
+        motion = params.newton_factor * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
+        length = float(np.linalg.norm(motion))
+        longest = max(params.max_step_cells, params.max_step_sigmas * field.sigma)
+        if length > longest:
+            motion *= longest / length
+        if length < params.converged_cells:
             break
+        step = np.array([motion[0], motion[1], motion[2] / radius])
         current = _step_matrix(step, pivot) @ best
     return best
 
@@ -288,38 +305,39 @@ def _step_matrix(step: NDArray[np.float64], pivot: NDArray[np.float64]) -> NDArr
     return update
 
 
-CURVATURE_STEP = 1.0
-"""Finite-difference step, in cells of RMS motion of map 2, for the curvature:
-one cell spans the sharp field's peak (sigma of 1 cell)."""
-
-
 def constraint_strength(
-    smoothed: SmoothedMap, second: PreparedMap, matrix: NDArray[np.float64], *, local: bool = False
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    local: bool = False,
+    params: GaussNewtonParams = DEFAULT_GAUSS_NEWTON,
 ) -> float:
     """How firmly the walls pin the transform down, in matching cells.
 
     The Hessian ``H`` of ``Σ M(T_ξ p)`` at ``matrix`` (central differences on
-    the sharpest field) is compared with ``G``, the mean squared motion of map
-    2's cells per unit of ``ξ``. The smallest generalised eigenvalue of
-    ``(-H, G)`` is the loss of matching cells per cell² of RMS motion along
-    the least constrained direction: close to the number of wall cells
+    the field of width ``params.curvature_sigma``) is compared with ``G``,
+    the mean squared motion of map 2's cells per unit of ``ξ``. The smallest
+    generalised eigenvalue of ``(-H, G)`` is the loss of matching cells per
+    cell² of RMS motion along the least constrained direction: close to the number of wall cells
     holding that direction (a cell on a wall loses about one per cell²), and
     near zero when the overlap is one straight wall that lets map 2 slide or
     turn. ``local`` blurs only where map 2 lands (see :func:`refine_transform`).
     """
-    stride = max(1, int(np.ceil(len(second.points) / REFINE_POINTS)))
+    stride = max(1, int(np.ceil(len(second.points) / params.curvature_points)))
     points = second.points[::stride]
-    box = _landing_box(matrix, points, smoothed, CURVATURE_SIGMA) if local else None
+    sigma = params.curvature_sigma
+    box = _landing_box(matrix, points, smoothed, sigma, params.local_margin) if local else None
     if local and box is None:
         return 0.0
-    field = smoothed.field(CURVATURE_SIGMA, box=box)
+    field = smoothed.field(sigma, box=box)
     landed = apply_transform(matrix, points)
     pivot = landed.mean(axis=0)
     rel = landed - pivot
     # Motion metric: translation moves every cell by 1, rotation by its radius.
     metric = np.diag([1.0, 1.0, float(np.mean(np.sum(rel**2, axis=1)))])
     # Steps of one cell of RMS motion along each coordinate.
-    steps = CURVATURE_STEP / np.sqrt(np.diag(metric))
+    steps = params.curvature_step / np.sqrt(np.diag(metric))
 
     def objective(delta: NDArray[np.float64]) -> float:
         update = rotation_about(delta[2], pivot)

@@ -1,4 +1,6 @@
-"""The result every merging method returns (the merger contract of DESIGN.md)."""
+"""The result every merging method returns: the merger contract (a transform, a
+confidence in [0, 1], and whether the method vouches for it; valid grids never
+raise, and `accepted=True` on a wrong transform is the worst failure)."""
 
 from __future__ import annotations
 
@@ -33,7 +35,8 @@ class MergeResult:
     ----------
     matrix : (3, 3) float ndarray
         Map transformation matrix of eq. (1): map 2 cells -> map 1 cells,
-        ``(x, y) = (col, row)``.
+        ``(x, y) = (col, row)``. Rigid, except between grids of different
+        resolutions, where it also scales by their ratio.
     confidence : float
         In ``[0, 1]``; higher means more certainly right.
     accepted : bool
@@ -43,13 +46,22 @@ class MergeResult:
         The method's registered name.
     matrix_metres : (3, 3) float ndarray or None
         The same transform between the maps' frames in metres (map 2 frame ->
-        map 1 frame), when both inputs were :class:`OccupancyGrid`s.
+        map 1 frame), when both inputs were :class:`OccupancyGrid`s; always
+        rigid.
     hypotheses : tuple of Hypothesis
         Candidates considered, best first.
     timings : dict
         Seconds spent per stage, and ``"total"``.
     reason : str
-        Why the result was not accepted (empty when accepted).
+        Why the result was not accepted, in words (empty when accepted).
+    evidence : dict
+        The numbers behind the verdict, by name, for methods that report
+        them (the default: ``agreement``, ``conflict``,
+        ``matching_wall_cells``, ``shared_open_cells``, ``strength``,
+        ``margin`` and ``runner_up_distance_cells`` against the best
+        different placement, the factors ``close_*`` and, when the close
+        fit fails, ``robust_*`` and ``tolerant_*``;
+        see :mod:`merging.verdict`).
     """
 
     matrix: NDArray[np.float64]
@@ -60,6 +72,7 @@ class MergeResult:
     hypotheses: tuple[Hypothesis, ...] = ()
     timings: dict[str, float] = field(default_factory=dict)
     reason: str = ""
+    evidence: dict[str, float] = field(default_factory=dict)
 
     @property
     def rotation(self) -> float:

@@ -1,29 +1,77 @@
 """The default merger: the paper's tomographic ideas, made robust and fast.
 
-The steps mirror section 3 of the paper, each strengthened where the paper's
-version is fragile:
+Where the Radon transform went
+------------------------------
+The paper (section 3.1) computes the sinogram ``S(s, α)`` of each map, the
+Radon transform of its occupied cells (eqs. 2-6), and reads the rotation off
+its maximum (eq. 7) and the translation off the cross-correlations of two of
+its columns (eqs. 11-17). This method uses the same transform, but through
+the **Fourier slice theorem**, without building a sinogram: the 1-D Fourier
+transform of the column ``S(·, α)`` along ``s`` is the 2-D Fourier transform
+of the map along the radial line at angle α. So
 
-1. Rotation (section 3.1.1). Instead of one sinogram maximum (eq. 7), the
-   whole translation-invariant angular spectra of the two sinograms are
-   correlated (:mod:`merging.angular`); the strongest peaks, each with its
-   180° twin, are the rotation hypotheses.
-2. Translation (section 3.1.2). Instead of two partial sinograms (eqs.
-   11-17), the evidence of every projection angle is pooled through the 2-D
-   correlation of the maps (:mod:`merging.correlate`), with a penalty for
-   walls landing on free space; each rotation yields several translations.
-3. Search and objective (sections 3.2-3.3). Instead of Monte-Carlo sampling
-   of a sorted-projection objective (eqs. 27-30), every hypothesis is scored
-   by carrying each map's walls into the other (:mod:`merging.verify`), and
-   the best are refined by Gauss-Newton to sub-cell, sub-degree accuracy
-   (:mod:`merging.refine`).
-4. Confidence. The fit, the amount of agreeing wall and the margin over the
-   best *different* hypothesis give a confidence; only confident results
-   are accepted.
+* every column's spectrum comes from one 2-D FFT of the map; its magnitude
+  does not change when the map is translated, and rotating the map moves it
+  from α to α + φ. Correlating these *angular spectra* of the two maps over
+  α finds the rotation φ from all columns at once (:mod:`merging.angular`);
+* correlating the column of map 1 at α with the rotated map 2's column at α
+  peaks at ``s = Δx cos α + Δy sin α`` (the paper's eqs. 14-17 do this for
+  α = 180° and 90°). The projection of a 2-D correlation is the correlation
+  of the projections, so the 1-D correlations of *all* columns pooled are
+  the Radon transform of the maps' 2-D correlation: its peak is where every
+  projection agrees, and one FFT correlation finds it
+  (:mod:`merging.correlate`).
+
+Where each equation of the paper went
+-------------------------------------
+========================  ===============================================
+paper                     here
+========================  ===============================================
+eq. (1) transform         :func:`merging.transforms.rigid_matrix`
+eqs. (2)-(6) sinogram     angular spectra by the Fourier slice theorem
+                          (:func:`merging.angular.angular_spectrum`)
+eq. (7) rotation          the peaks of the circular correlation of the
+                          angular spectra (:func:`~merging.angular.rotation_correlation`),
+                          each with its 180° twin
+eq. (8) rotate map 2      in :func:`~merging.correlate.translation_peaks`
+eqs. (9)-(17) translation the pooled correlation of all projections, as a
+                          2-D FFT correlation on a coarse grid
+eqs. (18)-(26) search     the few strongest rotation and translation peaks
+space (GMMs)              replace the Gaussian mixtures' means
+eqs. (27)-(30) Monte      each hypothesis is verified (:mod:`merging.verify`)
+Carlo objective           and the best refined by Gauss-Newton
+                          (:mod:`merging.refine`), the stages of
+                          :data:`merging.params.DEFAULT_STAGES`
+eq. (31) matching index   :func:`merging.metrics.matching_index` (scoring only)
+========================  ===============================================
+
+The paper's pipeline as written is ``method="paper"`` (:mod:`merging.paper`).
+
+Steps
+-----
+1. Rotation: angular spectra, the strongest correlation peaks and their
+   180° twins.
+2. Translation: for each rotation, the strongest peaks of the pooled
+   projection correlation, with map 1's open space counted against map 2's
+   walls.
+3. Screening: every hypothesis carries each map's walls into the other.
+4. Refinement: the schedule of :class:`~merging.params.RefineStage` rows,
+   each refining fewer candidates on finer fields.
+5. Verdict: a close fit (five factors: fit, support, distinctiveness
+   against the best *different* hypothesis, constraint strength, shared
+   open space) or, for maps that bend against each other, robust evidence
+   (a large overlap whose walls meet within a few cells and whose open space
+   lies on open space), see :mod:`merging.verdict`; only confident results
+   are accepted, and a refusal says why.
+
+Every setting is in :class:`~merging.params.TomographicParams`, passed as
+``merging.estimate_transform(..., params=...)``.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -31,53 +79,18 @@ from numpy.typing import NDArray
 
 from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
 from merging.api import register_method
-from merging.correlate import coarse_factor, coarsen, translation_peaks
-from merging.refine import (
-    ITERATIONS,
-    REFINE_POINTS,
-    SHARP_ITERATIONS,
-    SIGMA_SCHEDULE,
-    SmoothedMap,
-    constraint_strength,
-    refine_transform,
-)
+from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
+from merging.grid import OccupancyGrid, validate_cells
+from merging.metrics import as_matrix
+from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
+from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
-from merging.transforms import apply_transform
-from merging.verify import (
-    ACCEPT_CONFIDENCE,
-    PreparedMap,
-    Verification,
-    confidence,
-    prepare_map,
-    verify,
-)
+from merging.transforms import apply_transform, translation_matrix
+from merging.verdict import judge
+from merging.verify import PreparedMap, Verification, prepare_map, verify
 
-ROTATION_PEAKS = 3
-"""Rotation peaks (modulo 180°) kept; with their twins, twice as many hypotheses.
-In every real-map window pair examined the true rotation was among the three
-strongest (rectilinear buildings put its 90° neighbours next)."""
-TRANSLATION_PEAKS = 3
-"""Translations kept per rotation hypothesis."""
-REFINED = 3
-"""Best-verified hypotheses that are refined before the final choice."""
-CORRELATION_REFINED = 2
-"""Hypotheses with the strongest correlation that are refined too."""
-KEEP_REFINED_MARGIN = 0.02
-"""Score by which a refined transform may verify worse than its start and still be
-kept: about one wall cell in fifty landing one cell farther out."""
-WIDE_POINTS = 600
-"""Map 2 cells moved in the first, widest refinement round: enough to bring a
-coarse hypothesis within the next field's reach."""
-SHARPENED = 2
-"""Refined hypotheses, best first, that are refined on to the one-cell field:
-the others only need the widest field's first steps to be ranked below them,
-and only the winner is taken to the finest field."""
-SCREEN_STRIDE = 4
-"""Hypotheses are screened with every fourth verification point (about 1000 per
-map), enough to rank them; the refined ones are verified with all."""
-DISTINCT_CELLS = 4.0
-"""Two transforms moving map 2's cells further apart than this (RMS) are different
-answers; closer ones are the same answer found twice."""
+Candidate = tuple[Verification, NDArray[np.float64]]
+"""A hypothesis and its verification."""
 
 
 def rank(check: Verification) -> float:
@@ -85,40 +98,47 @@ def rank(check: Verification) -> float:
     return check.score
 
 
-def _refine_if_better(
-    smoothed: SmoothedMap,
-    first: PreparedMap,
-    second: PreparedMap,
-    matrix: NDArray[np.float64],
-    sigmas: tuple[float, ...],
-    iterations: int = ITERATIONS,
-    *,
-    local: bool = False,
-    start: Verification | None = None,
-    max_points: int = REFINE_POINTS,
-) -> tuple[Verification, NDArray[np.float64]]:
-    """Refine ``matrix``; keep the start only when the refined one verifies clearly worse.
+class _Maps:
+    """Both prepared maps, map 1's fields and the settings: what every stage needs."""
 
-    ``start`` is the start's full verification when already known.
-    Refinement may settle on a nearby optimum that explains the maps worse
-    (two close parallel walls blurred into one by a wide field). Within
-    :data:`KEEP_REFINED_MARGIN` the refined transform wins: verification
-    tolerates a cell of misfit, so it cannot rank finer than that.
-    """
-    better = refine_transform(
-        smoothed,
-        second,
-        matrix,
-        sigmas=sigmas,
-        iterations=iterations,
-        local=local,
-        max_points=max_points,
-    )
-    before = start if start is not None else verify(first, second, matrix, space=False)
-    after = verify(first, second, better, space=False)
-    if rank(after) >= rank(before) - KEEP_REFINED_MARGIN:
-        return after, better
-    return before, matrix
+    __slots__ = ("first", "params", "second", "smoothed")
+
+    def __init__(self, first: PreparedMap, second: PreparedMap, params: TomographicParams):
+        self.first, self.second, self.params = first, second, params
+        gauss_newton = params.gauss_newton
+        self.smoothed = SmoothedMap(
+            first.walls,
+            first.shape,
+            downsample_from_sigma=gauss_newton.downsample_from_sigma,
+            whole_field_share=gauss_newton.whole_field_share,
+        )
+
+    def verify(self, matrix: NDArray[np.float64]) -> Verification:
+        return verify(self.first, self.second, matrix, params=self.params.verify)
+
+    def refine(self, candidate: Candidate, stage: RefineStage) -> Candidate:
+        """Refine a candidate; keep the start only when the refined one verifies clearly worse.
+
+        Refinement may settle on a nearby optimum that explains the maps
+        worse (two close parallel walls blurred into one by a wide field).
+        Within ``keep_refined_margin`` the refined transform wins:
+        verification tolerates a cell of misfit, so it cannot rank finer.
+        """
+        before, matrix = candidate
+        better = refine_transform(
+            self.smoothed,
+            self.second,
+            matrix,
+            sigmas=stage.sigmas,
+            iterations=stage.iterations,
+            local=stage.local,
+            max_points=stage.points,
+            params=self.params.gauss_newton,
+        )
+        after = self.verify(better)
+        if rank(after) >= rank(before) - self.params.keep_refined_margin:
+            return after, better
+        return before, matrix
 
 
 def _rms_between(a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]):
@@ -127,14 +147,21 @@ def _rms_between(a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray
 
 
 def _rotation_hypotheses(
-    first: PreparedMap, second: PreparedMap, factor: int
-) -> tuple[list[float], Any, Any]:
+    first: PreparedMap, second: PreparedMap, factor: int, params: TomographicParams
+) -> tuple[list[float], CoarseMap, CoarseMap]:
     """Rotation hypotheses (radians, for map 2 -> map 1), from angular spectra."""
-    coarse1, coarse2 = coarsen(first, factor), coarsen(second, factor)
+    coarse1 = coarsen(first, factor, params=params.translation)
+    coarse2 = coarsen(second, factor, params=params.translation)
     size = int(2 ** np.ceil(np.log2(max(*coarse1.walls.shape, *coarse2.walls.shape, 8))))
-    spectrum1 = angular_spectrum(coarse1.walls, size=size)
-    spectrum2 = angular_spectrum(coarse2.walls, size=size)
-    peaks = rotation_peaks(rotation_correlation(spectrum1, spectrum2), count=ROTATION_PEAKS)
+    rotation = params.rotation
+    spectrum1 = angular_spectrum(coarse1.walls, size=size, params=rotation)
+    spectrum2 = angular_spectrum(coarse2.walls, size=size, params=rotation)
+    peaks = rotation_peaks(
+        rotation_correlation(spectrum1, spectrum2),
+        count=rotation.peaks,
+        angle_step_deg=rotation.angle_step_deg,
+        separation_deg=rotation.peak_separation_deg,
+    )
     thetas: list[float] = []
     for angle_deg, _ in peaks:
         # Map 2 shows map 1's structure turned by +angle; turning it back is -angle.
@@ -143,112 +170,244 @@ def _rotation_hypotheses(
     return thetas, coarse1, coarse2
 
 
+def _translation_hypotheses(
+    coarse1: CoarseMap, coarse2: CoarseMap, thetas: list[float], params: TomographicParams
+) -> tuple[list[NDArray[np.float64]], list[float]]:
+    """For each rotation, the strongest translations and their correlation values."""
+    candidates: list[NDArray[np.float64]] = []
+    correlation: list[float] = []
+    for theta in thetas:
+        for matrix, value in translation_peaks(
+            coarse1,
+            coarse2,
+            theta,
+            count=params.translation.peaks,
+            suppression=params.translation.peak_suppression,
+        ):
+            candidates.append(matrix)
+            correlation.append(value)
+    return candidates, correlation
+
+
+def _screened(
+    maps: _Maps, candidates: list[NDArray[np.float64]], correlation: list[float]
+) -> list[NDArray[np.float64]]:
+    """Every hypothesis, in the order the refinement admits them.
+
+    First the ``correlation_refined`` strongest by correlation, then the rest
+    by a quick verification on every ``screen_stride``-th wall cell: before
+    refinement a true but slightly misaligned transform can fit worse than
+    one that lays a single outer corner on a corner, which the correlation
+    (weighing how much overlaps) does not favour.
+    """
+    params = maps.params
+    stride = params.verify.screen_stride
+    scores = [
+        rank(verify(maps.first, maps.second, m, stride=stride, params=params.verify))
+        for m in candidates
+    ]
+    by_correlation = [int(i) for i in np.argsort(correlation)[::-1][: params.correlation_refined]]
+    by_score = sorted(range(len(candidates)), key=lambda i: -scores[i])
+    order = by_correlation + [i for i in by_score if i not in by_correlation]
+    return [candidates[i] for i in order]
+
+
+def coarse_to_fine(stage: RefineStage, factor: int, params: TomographicParams) -> RefineStage:
+    """``stage`` with wider fields put before its own, to catch hypotheses of a coarse grid.
+
+    A hypothesis from a grid of ``factor``-cell blocks is off by up to half a
+    block in translation, plus its rotation error times the map's radius,
+    both growing with the map. Field widths double from the stage's widest
+    while they stay within ``params.widest_per_block`` blocks, so that each
+    width's answer lies within the next one's reach (a field catches about
+    twice its width) and a 4000-cell map starts as close as a 400-cell one.
+    """
+    widths: list[float] = []
+    width = 2.0 * max(stage.sigmas)
+    while width <= params.widest_per_block * factor:
+        widths.insert(0, width)
+        width *= 2.0
+    return replace(stage, sigmas=(*widths, *stage.sigmas)) if widths else stage
+
+
+def _refined(maps: _Maps, screened: list[NDArray[np.float64]], factor: int) -> list[Candidate]:
+    """Walk the refinement schedule; returns the pool, the winner first.
+
+    Each stage admits the next screened candidates (verified in full), ranks
+    the pool and refines its best few; the last stage's first is the winner.
+    The first stage starts from fields as wide as the coarse grid needs
+    (:func:`coarse_to_fine`).
+    """
+    pool: list[Candidate] = []
+    admitted = 0
+    stages = maps.params.stages
+    stages = (coarse_to_fine(stages[0], factor, maps.params), *stages[1:])
+    for stage in stages:
+        newcomers = screened[admitted : admitted + stage.admit]
+        admitted += len(newcomers)
+        pool += [(maps.verify(m), m) for m in newcomers]
+        pool.sort(key=lambda candidate: -rank(candidate[0]))
+        pool[: stage.refine] = [maps.refine(c, stage) for c in pool[: stage.refine]]
+    return pool
+
+
 def tomographic_merge(
-    cells1: NDArray[np.int8], cells2: NDArray[np.int8], *, rng: np.random.Generator, **options: Any
+    cells1: NDArray[np.int8],
+    cells2: NDArray[np.int8],
+    *,
+    rng: np.random.Generator,
+    params: TomographicParams = DEFAULT_PARAMS,
+    **options: Any,
 ) -> MergeResult:
     """Estimate the map transformation matrix of map 2 onto map 1 (the default method).
 
     Deterministic: ``rng`` is accepted for the common signature and unused.
-    See the module docstring for the steps.
+    See the module docstring for the steps; ``params`` holds every setting.
     """
     if options:
-        raise TypeError(f"the tomographic method takes no options, got {sorted(options)}")
+        raise TypeError(
+            f"the tomographic method takes no options, got {sorted(options)}; "
+            "pass its settings as params=TomographicParams(...)"
+        )
+    # Only the observed part of each grid matters: searching within it makes the
+    # time follow the mapped building, not the canvas it was drawn on.
+    (crop1, offset1), (crop2, offset2) = observed_part(cells1), observed_part(cells2)
+    result = _merge_observed(crop1, crop2, params)
+    into1, out_of2 = translation_matrix(offset1), translation_matrix(-offset2)
+    return replace(
+        result,
+        matrix=into1 @ result.matrix @ out_of2,
+        hypotheses=tuple(replace(h, matrix=into1 @ h.matrix @ out_of2) for h in result.hypotheses),
+    )
+
+
+def observed_part(cells: NDArray[np.int8]) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
+    """The smallest box of ``cells`` holding every observed cell, and its corner ``(x, y)``.
+
+    A grid with no observed cell is returned whole, at ``(0, 0)``.
+    """
+    known = cells >= 0
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if len(rows) == 0:
+        return cells, np.zeros(2)
+    box = cells[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    return box, np.array([cols[0], rows[0]], dtype=float)
+
+
+def _merge_observed(
+    cells1: NDArray[np.int8], cells2: NDArray[np.int8], params: TomographicParams
+) -> MergeResult:
+    """:func:`tomographic_merge` on grids cropped to their observed parts."""
     timings: dict[str, float] = {}
     clock = time.perf_counter()
-    first, second = prepare_map(cells1), prepare_map(cells2)
-    factor = coarse_factor(cells1.shape, cells2.shape)
+    first = prepare_map(cells1, params=params.verify)
+    second = prepare_map(cells2, params=params.verify)
+    maps = _Maps(first, second, params)
+    factor = coarse_factor(cells1.shape, cells2.shape, coarse_cells=params.translation.coarse_cells)
     timings["prepare"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    thetas, coarse1, coarse2 = _rotation_hypotheses(first, second, factor)
+    thetas, coarse1, coarse2 = _rotation_hypotheses(first, second, factor, params)
     timings["rotation"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    candidates: list[NDArray[np.float64]] = []
-    correlation: list[float] = []
-    for theta in thetas:
-        for matrix, value in translation_peaks(coarse1, coarse2, theta, count=TRANSLATION_PEAKS):
-            candidates.append(matrix)
-            correlation.append(value)
+    candidates, correlation = _translation_hypotheses(coarse1, coarse2, thetas, params)
     timings["translation"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    screened = [
-        (verify(first, second, m, stride=SCREEN_STRIDE, space=False), m) for m in candidates
-    ]
-    # Refine the best by verification and the best by correlation: before
-    # refinement a true but slightly misaligned transform can fit worse than
-    # one that lays a single outer corner on a corner, which the correlation
-    # (weighing how much overlaps) does not favour.
-    by_correlation = [screened[i] for i in np.argsort(correlation)[::-1][:CORRELATION_REFINED]]
-    by_score = sorted(screened, key=lambda vm: -rank(vm[0]))
-    checked = by_correlation + [
-        vm for vm in by_score if not any(vm[1] is c[1] for c in by_correlation)
-    ]
+    screened = _screened(maps, candidates, correlation)
     timings["verify"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    # Refinement in three rounds, each on fewer candidates and finer fields:
-    # all on the widest field, the finalists on to one cell, the winner to the end.
-    smoothed = SmoothedMap(first.walls, first.shape)
-    widest, finest = SIGMA_SCHEDULE[:1], SIGMA_SCHEDULE[-1:]
-    refined = [
-        _refine_if_better(smoothed, first, second, m, widest, max_points=WIDE_POINTS)
-        for _, m in checked[: REFINED + CORRELATION_REFINED]
-    ]
-    refined.sort(key=lambda vm: -rank(vm[0]))
-    refined[:SHARPENED] = [
-        _refine_if_better(
-            smoothed,
-            first,
-            second,
-            m,
-            SIGMA_SCHEDULE[1:-1],
-            SHARP_ITERATIONS,
-            local=True,
-            start=check,
-        )
-        for check, m in refined[:SHARPENED]
-    ]
-    rest = [
-        (verify(first, second, m, space=False), m)
-        for _, m in checked[REFINED + CORRELATION_REFINED : REFINED + CORRELATION_REFINED + 3]
-    ]
-    pool = sorted(refined + rest, key=lambda vm: -rank(vm[0]))
-    pool[0] = _refine_if_better(
-        smoothed, first, second, pool[0][1], finest, SHARP_ITERATIONS, local=True, start=pool[0][0]
-    )
+    pool = _refined(maps, screened, factor)
     timings["refine"] = time.perf_counter() - clock
 
     best = pool[0][1]
-    best_check = verify(first, second, best)  # with the shared open space, for confidence
     runner_up = next(
-        (v for v, m in pool[1:] if _rms_between(m, best, second.points) > DISTINCT_CELLS), None
+        (c for c in pool[1:] if _rms_between(c[1], best, second.points) > params.distinct_cells),
+        None,
     )
-    strength = constraint_strength(smoothed, second, best, local=True)
-    score = confidence(best_check, runner_up, strength=strength)
     hypotheses = tuple(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
     )
-    accepted = score >= ACCEPT_CONFIDENCE
-    runner = "none" if runner_up is None else f"{runner_up.net:.0f}"
-    reason = ""
-    if not accepted:
-        reason = (
-            f"confidence {score:.2f} below {ACCEPT_CONFIDENCE}: agreement "
-            f"{best_check.agreement:.2f}, conflict {best_check.conflict:.2f}, "
-            f"{best_check.agreeing:.0f} matching wall cells, net {best_check.net:.0f} "
-            f"against the runner-up's {runner}, constraint {strength:.1f}"
-        )
+    return _judged(maps, best, runner_up, hypotheses, timings)
+
+
+def _judged(
+    maps: _Maps,
+    best: NDArray[np.float64],
+    runner_up: Candidate | None,
+    hypotheses: tuple[Hypothesis, ...],
+    timings: dict[str, float],
+) -> MergeResult:
+    """The result for ``best``: its confidence, the verdict and, when refused, why."""
+    clock = time.perf_counter()
+    verdict = judge(maps.first, maps.second, maps.smoothed, best, runner_up, maps.params)
+    timings["judge"] = time.perf_counter() - clock
     return MergeResult(
         matrix=best,
-        confidence=score,
-        accepted=accepted,
+        confidence=verdict.confidence,
+        accepted=verdict.accepted,
         method="tomographic",
         hypotheses=hypotheses,
         timings=timings,
-        reason=reason,
+        reason=verdict.reason,
+        evidence=verdict.evidence,
     )
 
 
-register_method("tomographic")(tomographic_merge)
+def refine_from(
+    map1: OccupancyGrid | NDArray[Any],
+    map2: OccupancyGrid | NDArray[Any],
+    matrix: NDArray[np.float64],
+    *,
+    params: TomographicParams = DEFAULT_PARAMS,
+) -> MergeResult:
+    """Refine a given transform (map 2 cells -> map 1 cells) and verify it, without a search.
+
+    For a transform known to be within a few cells and a degree or so of the
+    answer, such as the previous round's between two growing maps: the
+    refinement of ``params.from_start`` and the confidence of the default
+    method, except distinctiveness (there is no runner-up without a
+    search). Much cheaper than :func:`tomographic_merge`.
+
+    Parameters
+    ----------
+    map1, map2 : OccupancyGrid or (rows, cols) array
+        Grids in the ROS coding, of one resolution (cells are matched as
+        they are).
+    matrix : (3, 3) float ndarray
+        The starting transform, map 2 cells -> map 1 cells.
+    params : TomographicParams
+        Settings; ``from_start`` is the refinement run.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For grids not in the ROS coding, a matrix that is not a finite 3x3
+        one, or ``params`` that is not a TomographicParams.
+    """
+    cells1 = validate_cells(map1, name="map1")
+    cells2 = validate_cells(map2, name="map2")
+    matrix = as_matrix(matrix)
+    if not isinstance(params, TomographicParams):
+        raise TypeError(f"params must be a TomographicParams, got {type(params).__name__}")
+    clock = time.perf_counter()
+    (crop1, offset1), (crop2, offset2) = observed_part(cells1), observed_part(cells2)
+    first = prepare_map(crop1, params=params.verify)
+    second = prepare_map(crop2, params=params.verify)
+    maps = _Maps(first, second, params)
+    into1, out_of2 = translation_matrix(offset1), translation_matrix(-offset2)
+    start = np.linalg.inv(into1) @ np.asarray(matrix, dtype=float) @ np.linalg.inv(out_of2)
+    refined = maps.refine((maps.verify(start), start), params.from_start)
+    timings = {"refine": time.perf_counter() - clock}
+    check, best = refined[0], into1 @ refined[1] @ out_of2
+    hypotheses = (
+        Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
+    )
+    result = _judged(maps, refined[1], None, hypotheses, timings)
+    return replace(result, matrix=best)
+
+
+register_method("tomographic", params_type=TomographicParams)(tomographic_merge)

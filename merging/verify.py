@@ -20,45 +20,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.grid import free_mask, occupied_mask
+from merging.params import ConfidenceParams, VerifyParams
 from merging.transforms import apply_transform
 
-MAX_VERIFY_POINTS = 4000
-"""Occupied cells per map used for verification; more add time, not evidence."""
-NEAR_RADIUS = 1
-"""Cells (chessboard) within which a carried cell counts as landing on a wall:
-rasterising a rotated wall moves its cells by up to one cell."""
-CONFLICT_CLEARANCE = 2
-"""A free cell is evidence against a wall only this many cells (chessboard)
-away from any occupied cell, so slightly offset walls are not punished."""
-FIELD_SIGMA = 1.0
-"""Standard deviation, in cells, of the smoothed occupancy used for refinement."""
-CONFLICT_WEIGHT = 3.0
-"""How much a conflicting cell costs relative to what an agreeing one earns."""
-SUPPORT_SCALE = 80.0
-"""Agreeing cells (at full resolution) at which support reaches 1 - 1/e; about
-four metres of wall at 0.05 m, below which a match is too small to trust."""
-SHARED_SPACE_SCALE = 1000.0
-"""Clear free cells landing on clear free cells (both directions together) at
-which the shared-space factor reaches 1 - 1/e: about a square metre seen by
-both robots at 0.05 m. Maps laid side by side along one wall share none."""
-FIT_CENTRE = 0.80
-"""Quality at which the fit factor is one half: right merges of real and
-simulated maps score 0.85-1; wrong ones that fit a repeated room, 0.7-0.86."""
-FIT_WIDTH = 0.06
-"""Width of the fit factor's logistic, in quality."""
-STRENGTH_SCALE = 10.0
-"""Constraint strength (matching cells per cell² of motion along the weakest
-direction, see :func:`merging.refine.constraint_strength`) at which that
-factor reaches 1 - 1/e: an overlap of one short wall scores about 3, a room
-corner about 30."""
-OVERLAP_PREFERENCE = 0.05
-"""Fit (quality) a tenfold larger overlap is worth when ranking hypotheses."""
-DISTINCT_MARGIN = 0.25
-"""The best transform must explain this much more than the best different one
-(as a fraction of its net agreeing cells) for the distinctiveness factor to
-pass one half."""
-ACCEPT_CONFIDENCE = 0.5
-"""Confidence at or above which a result is accepted."""
+DEFAULT_VERIFY = VerifyParams()
+"""The default verification settings."""
+DEFAULT_CONFIDENCE = ConfidenceParams()
+"""The default confidence factors and acceptance threshold."""
+ACCEPT_CONFIDENCE = DEFAULT_CONFIDENCE.accept
+"""Confidence at or above which a result is accepted, by default."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,16 +42,17 @@ class PreparedMap:
     walls : (N, 2) float ndarray
         ``(x, y)`` of every occupied cell.
     points : (N, 2) float ndarray
-        ``(x, y)`` of at most :data:`MAX_VERIFY_POINTS` occupied cells, spread
-        evenly over all of them.
+        ``(x, y)`` of at most ``VerifyParams.max_points`` occupied cells,
+        spread evenly over all of them.
     point_weight : float
         Occupied cells each point stands for.
     near_occupied : (rows, cols) bool ndarray
-        Occupied cells grown by :data:`NEAR_RADIUS`.
+        Occupied cells grown by ``VerifyParams.near_radius``.
     clear_free : (rows, cols) bool ndarray
-        Free cells at least :data:`CONFLICT_CLEARANCE` + 1 cells from a wall.
+        Free cells more than ``near_radius + conflict_clearance`` cells
+        (chessboard) from a wall.
     open_points : (M, 2) float ndarray
-        ``(x, y)`` of at most :data:`MAX_VERIFY_POINTS` clear free cells.
+        ``(x, y)`` of at most ``VerifyParams.max_open_points`` clear free cells.
     open_weight : float
         Clear free cells each of those stands for.
     """
@@ -104,7 +75,10 @@ class PreparedMap:
 def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     """Grow ``mask`` by ``radius`` cells in the chessboard metric (a square element).
 
-    Separable shifted ORs: far cheaper than a general binary dilation.
+    The same as ``scipy.ndimage.binary_dilation(mask, np.ones((2 * radius + 1,) * 2))``
+    (pinned by a test), done as separable shifted ORs: on a whole building
+    (1803 x 1647 cells) 6 to 60 times faster than ``binary_dilation`` or
+    ``maximum_filter`` (``python scripts/bench_kernels.py``).
     """
     rows = mask.copy()
     for k in range(1, radius + 1):
@@ -117,18 +91,18 @@ def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     return out
 
 
-def prepare_map(cells: NDArray[np.int8], *, max_points: int = MAX_VERIFY_POINTS) -> PreparedMap:
+def prepare_map(cells: NDArray[np.int8], *, params: VerifyParams = DEFAULT_VERIFY) -> PreparedMap:
     """Compute the verification lookups of a validated grid."""
     occupied = occupied_mask(cells)
     rows, cols = np.divmod(np.flatnonzero(occupied), cells.shape[1])
     all_points = np.column_stack([cols, rows]).astype(np.float64)
-    stride = max(1, int(np.ceil(len(all_points) / max_points)))
+    stride = max(1, int(np.ceil(len(all_points) / params.max_points)))
     points = all_points[::stride]
     weight = len(all_points) / max(len(points), 1)
-    near = dilate(occupied, NEAR_RADIUS)
-    blocked = dilate(occupied, NEAR_RADIUS + CONFLICT_CLEARANCE)
+    near = dilate(occupied, params.near_radius)
+    blocked = dilate(occupied, params.near_radius + params.conflict_clearance)
     clear_free = free_mask(cells) & ~blocked
-    open_points, open_weight = _spread(clear_free, max_points)
+    open_points, open_weight = _spread(clear_free, params.max_open_points)
     return PreparedMap(
         cells, all_points, points, weight, near, clear_free, open_points, open_weight
     )
@@ -163,6 +137,15 @@ class Verification:
         free cells of the other map: open space both robots saw. Two maps
         laid side by side along one wall (two adjacent rooms, each seen from
         inside) share walls but no space.
+    conflict_weight : float
+        What a conflicting cell costs against an agreeing one
+        (``VerifyParams.conflict_weight`` of the verification).
+    overlap_preference : float
+        Fit a tenfold larger overlap is worth in :attr:`score`
+        (``VerifyParams.overlap_preference``).
+    space_preference : float
+        Fit a tenfold larger shared open space is worth in :attr:`score`
+        (``VerifyParams.space_preference``).
     """
 
     agreement: float
@@ -170,15 +153,18 @@ class Verification:
     overlap: float
     agreeing: float
     shared_space: float = 0.0
+    conflict_weight: float = DEFAULT_VERIFY.conflict_weight
+    overlap_preference: float = DEFAULT_VERIFY.overlap_preference
+    space_preference: float = DEFAULT_VERIFY.space_preference
 
     @property
     def quality(self) -> float:
-        """``agreement - CONFLICT_WEIGHT * conflict``: how well the overlap fits, at most 1."""
-        return self.agreement - CONFLICT_WEIGHT * self.conflict
+        """``agreement - conflict_weight * conflict``: how well the overlap fits, at most 1."""
+        return self.agreement - self.conflict_weight * self.conflict
 
     @property
     def net(self) -> float:
-        """Agreeing cells minus ``CONFLICT_WEIGHT`` times conflicting ones: the ranking score.
+        """Agreeing cells minus ``conflict_weight`` times conflicting ones.
 
         A count, not a fraction: a transform that overlaps only one corner of
         a building can fit that corner perfectly, yet explains far less than
@@ -188,14 +174,19 @@ class Verification:
 
     @property
     def score(self) -> float:
-        """The ranking score: :attr:`quality` plus a weak preference for larger overlaps.
+        """The ranking score: :attr:`quality`, plus preferences for larger overlaps.
 
         The fit fraction alone lets one exactly fitting corner of a building
         tie the whole building; the net count alone lets a large, loosely
-        fitting overlap beat a smaller exact one. A tenfold larger overlap is
-        worth :data:`OVERLAP_PREFERENCE` of fit.
+        fitting overlap beat a smaller exact one. A tenfold larger wall
+        overlap is worth :attr:`overlap_preference` of fit, a tenfold larger
+        shared open space :attr:`space_preference` (see
+        :class:`~merging.params.VerifyParams`; 0 when the space was not
+        counted).
         """
-        return self.quality + OVERLAP_PREFERENCE * float(np.log10(max(self.overlap, 1.0)))
+        walls = self.overlap_preference * float(np.log10(max(self.overlap, 1.0)))
+        space = self.space_preference * float(np.log10(self.shared_space + 1.0))
+        return self.quality + walls + space
 
 
 def _landing(points: NDArray[np.float64], target: PreparedMap) -> tuple[float, float, float]:
@@ -231,13 +222,15 @@ def verify(
     *,
     stride: int = 1,
     space: bool = True,
+    params: VerifyParams = DEFAULT_VERIFY,
 ) -> Verification:
     """Carry each map's occupied cells into the other with ``matrix`` and count landings.
 
     ``matrix`` takes ``second``'s cells to ``first``'s (eq. 1 of the paper).
     ``stride`` uses every ``stride``-th prepared point only, for a quick screen.
     ``space=False`` skips counting the shared open space (left 0), which only
-    :func:`confidence` needs, to rank hypotheses faster.
+    :func:`confidence` needs, to rank hypotheses faster. ``params`` gives the
+    weights stored in the result (the lookups were made by :func:`prepare_map`).
     """
     inverse = np.linalg.inv(matrix)
     forward = apply_transform(matrix, second.points[::stride])
@@ -255,43 +248,65 @@ def verify(
         ) + _open_landing(apply_transform(inverse, first.open_points[::stride]), second) * (
             first.open_weight * stride
         )
+    weights = (params.conflict_weight, params.overlap_preference, params.space_preference)
     if known <= 0:
-        return Verification(0.0, 0.0, 0.0, 0.0, shared)
-    return Verification(near / known, clear / known, known, near, shared)
+        return Verification(0.0, 0.0, 0.0, 0.0, shared, *weights)
+    return Verification(near / known, clear / known, known, near, shared, *weights)
 
 
 def confidence(
-    best: Verification, runner_up: Verification | None = None, *, strength: float | None = None
+    best: Verification,
+    runner_up: Verification | None = None,
+    *,
+    strength: float | None = None,
+    params: ConfidenceParams = DEFAULT_CONFIDENCE,
 ) -> float:
     """Map a verification (and the best *distinct* alternative) to ``[0, 1]``.
 
-    Up to five factors, each in ``[0, 1]``, multiplied. Their constants were
-    set on 200 window pairs of four real maps and 144 pairs of robots' maps
-    from six simulated episodes, so that no merge more than 2 cells (windows)
-    or 1 m (episodes) off reaches confidence 0.2, while nine in ten right
-    window merges are accepted; ``scripts/calibrate_confidence.py`` reruns
-    that check on other seeds.
+    Up to five factors, each in ``[0, 1]``, multiplied (their scales are
+    :class:`~merging.params.ConfidenceParams`, which says how they were set):
 
     * fit: a logistic of :attr:`Verification.quality` centred at
-      :data:`FIT_CENTRE`;
-    * support: ``1 - exp(-agreeing / SUPPORT_SCALE)``, so a few metres of
+      ``fit_centre``;
+    * support: ``1 - exp(-agreeing / support_scale)``, so a few metres of
       matching wall cannot vouch for a transform;
-    * distinctiveness: a logistic of ``1 - net(runner-up) / net(best)``, so
-      that two equally good explanations (a symmetric building) give a low
-      confidence instead of a coin toss;
+    * distinctiveness: a logistic of ``1 - net(runner-up) / net(best)``
+      centred at ``distinct_margin``, so that two equally good explanations
+      (a symmetric building) give a low confidence instead of a coin toss;
     * constraint (when ``strength`` is given): ``1 - exp(-strength /
-      STRENGTH_SCALE)``, so that an overlap that lets one map slide or turn
+      strength_scale)``, so that an overlap that lets one map slide or turn
       along a wall is not vouched for;
-    * shared space: ``1 - exp(-shared_space / SHARED_SPACE_SCALE)``, so that
+    * shared space: ``1 - exp(-shared_space / shared_space_scale)``, so that
       two maps of neighbouring rooms, which fit along their common wall,
       are not taken for one room.
     """
-    fit = 1.0 / (1.0 + np.exp(-(best.quality - FIT_CENTRE) / FIT_WIDTH))
-    support = 1.0 - np.exp(-best.agreeing / SUPPORT_SCALE)
+    return float(np.prod(confidence_factors(best, runner_up, strength=strength, params=params)))
+
+
+def confidence_factors(
+    best: Verification,
+    runner_up: Verification | None = None,
+    *,
+    strength: float | None = None,
+    params: ConfidenceParams = DEFAULT_CONFIDENCE,
+    fit_quality: float | None = None,
+) -> tuple[float, float, float, float, float]:
+    """The five factors of :func:`confidence`: fit, support, distinctiveness, constraint, space.
+
+    ``fit_quality`` replaces ``best.quality`` in the fit factor when given
+    (the default method passes the quality at ``ConfidenceParams.fit_tolerance``).
+    """
+    quality = best.quality if fit_quality is None else fit_quality
+    fit = 1.0 / (1.0 + np.exp(-(quality - params.fit_centre) / params.fit_width))
+    support = 1.0 - np.exp(-best.agreeing / params.support_scale)
     share = 0.0
     if runner_up is not None and best.net > 0:
         share = max(runner_up.net, 0.0) / best.net
-    distinct = 1.0 / (1.0 + np.exp(-((1.0 - share) - DISTINCT_MARGIN) / 0.05))
-    constrained = 1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / STRENGTH_SCALE)
-    shared = 1.0 - np.exp(-best.shared_space / SHARED_SPACE_SCALE)
-    return float(fit * support * distinct * constrained * shared)
+    distinct = 1.0 / (
+        1.0 + np.exp(-((1.0 - share) - params.distinct_margin) / params.distinct_width)
+    )
+    constrained = (
+        1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / params.strength_scale)
+    )
+    shared = 1.0 - np.exp(-best.shared_space / params.shared_space_scale)
+    return (float(fit), float(support), float(distinct), float(constrained), float(shared))

@@ -12,7 +12,11 @@ so that machine load affects them alike. Reported per method:
 * ``Ψ``: mean and standard deviation of the matching index of eq. (31);
 * time: median and 90th percentile, in milliseconds;
 
-and how time grows with the side of square maps (200 to 1600 cells).
+and how time grows with the side of square maps (200 to 4000 cells; windows
+larger than ``aces3`` are cut from it drawn at a finer resolution, each cell
+split into 2 x 2 or 3 x 3, so the building and its walls are the same and only
+the cell count grows), for the methods of ``--scaling-methods`` (by default
+also the ROS ``multirobot_map_merge`` pipeline, when OpenCV is installed).
 
 Each pair's result is appended to a CSV file as soon as it is known, so an
 interrupted run keeps what it measured.
@@ -27,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import importlib.util
 import json
 import sys
 import time
@@ -45,7 +50,14 @@ DEFAULT_METHODS = ("tomographic", "paper")
 SUCCESS_CELLS = 2.0
 """A merge is right when map 2's occupied cells land within this RMS distance."""
 SCALING_MAP = "aces3"
-"""The largest map, from which square windows up to 1600 cells are cut."""
+"""The largest map, from which the square windows of the scaling runs are cut."""
+SCALING_METHODS = ("tomographic", "paper", "ros_akaze")
+SLOW = 10.0
+"""Seconds per pair past which a method is not timed at larger sizes (AKAZE takes over
+a minute per pair at 3200 cells a side)."""
+PADDED_SIZES = (2000, 3000, 4000)
+"""Canvas sides (cells) into which the whole building is laid, unknown around it."""
+"""Methods timed against map size by default (OpenCV ones only when installed)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +75,15 @@ class Row:
     matching_index: float
     truth_matching_index: float
     seconds: float
+
+
+OPENCV_METHODS = ("ros_akaze", "ros_orb")
+"""Methods that need the optional OpenCV."""
+
+
+def has_opencv() -> bool:
+    """Whether OpenCV is installed (the ROS pipeline baselines need it)."""
+    return importlib.util.find_spec("cv2") is not None
 
 
 def run_pairs(names, methods, pairs_per_map, seed, writer, handle) -> list[Row]:
@@ -118,17 +139,50 @@ def scaling(methods, sizes, repeats, seed) -> dict[str, dict[int, list[float]]]:
     grid = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml")
     times: dict[str, dict[int, list[float]]] = {m: {} for m in methods}
     for size in sizes:
-        # Large windows of one building are mostly unobserved: only timing matters here.
+        slow = [m for m in methods if times[m] and np.median(times[m][max(times[m])]) > SLOW]
+        # Split cells until the map holds the window; large windows of one building are
+        # mostly unobserved: only timing matters here.
+        split = max(1, int(np.ceil(size / min(grid.shape))))
+        cells = np.repeat(np.repeat(grid.data, split, axis=0), split, axis=1)
         pairs = cut_window_pairs(
-            grid.data, count=repeats, window=(size, size), min_known_fraction=0.05, rng=seed
+            cells, count=repeats, window=(size, size), min_known_fraction=0.05, rng=seed
         )
         for pair in pairs:
             for method in methods:
+                if method in slow:
+                    continue
                 start = time.perf_counter()
                 merging.estimate_transform(pair.map1, pair.map2, method=method, rng=seed)
                 times[method].setdefault(size, []).append(time.perf_counter() - start)
         print(f"  scaling {size}x{size} done", file=sys.stderr)
     return times
+
+
+def padded_scaling(sizes, repeats, seed) -> dict[int, tuple[float, float]]:
+    """The default method on the whole building in canvases of growing side.
+
+    Map 2 is map 1 shifted by (23, 37) cells; the building (its wall cells)
+    stays the same and only the unknown area around it grows. Returns per
+    side the median seconds and the largest error in cells RMS.
+    """
+    whole = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml").data
+    rows, cols = whole.shape
+    out: dict[int, tuple[float, float]] = {}
+    for size in sizes:
+        first = np.full((size, size), -1, dtype=np.int8)
+        second = first.copy()
+        first[:rows, :cols] = whole
+        second[37 : 37 + rows, 23 : 23 + cols] = whole
+        truth = np.array([[1.0, 0.0, -23.0], [0.0, 1.0, -37.0], [0.0, 0.0, 1.0]])
+        seconds, errors = [], []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            result = merging.estimate_transform(first, second, rng=seed)
+            seconds.append(time.perf_counter() - start)
+            errors.append(transform_error(result.matrix, truth, second)[0])
+        out[size] = (float(np.median(seconds)), float(max(errors)))
+        print(f"  padded {size}x{size} done", file=sys.stderr)
+    return out
 
 
 def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str:
@@ -164,6 +218,9 @@ def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str
         for size in sizes:
             cells = []
             for m in methods:
+                if size not in times[m]:
+                    cells.append(f"not timed (over {SLOW:.0f} s at a smaller size)")
+                    continue
                 t = np.array(times[m][size]) * 1000
                 q1, q3 = np.percentile(t, [25, 75])
                 cells.append(f"{np.median(t):.0f} ({q1:.0f}-{q3:.0f})")
@@ -171,10 +228,26 @@ def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str
     return "\n".join(lines)
 
 
+def padded_markdown(padded: dict[int, tuple[float, float]], building: tuple[int, int]) -> str:
+    """The padded-canvas timings as a Markdown table."""
+    lines = [
+        "",
+        f"The whole building ({building[0]} x {building[1]} cells) in a larger unknown canvas, "
+        "map 2 shifted by (23, 37) cells: same wall cells, growing area.",
+        "",
+        "| canvas side (cells) | tomographic median ms | largest error (cells RMS) |",
+        "|---|---|---|",
+    ]
+    for size, (seconds, error) in padded.items():
+        lines.append(f"| {size} | {seconds * 1000:.0f} | {error:.2f} |")
+    return "\n".join(lines)
+
+
 def plot_scaling(times: dict[str, dict[int, list[float]]], path: Path) -> None:
     """Median time against map side, log-log, one line per method (needs matplotlib)."""
     try:
         import matplotlib
+        import matplotlib.ticker
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -194,6 +267,9 @@ def plot_scaling(times: dict[str, dict[int, list[float]]], path: Path) -> None:
     axis.set_xlabel("map side (cells)")
     axis.set_ylabel("time per pair (ms)")
     axis.axhline(50, color="grey", linestyle=":", linewidth=1)
+    sizes = sorted({n for per_size in times.values() for n in per_size})
+    axis.set_xticks(sizes, [str(n) for n in sizes], rotation=45)
+    axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     axis.legend()
     axis.set_title("merge time against map size")
     fig.tight_layout()
@@ -205,7 +281,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--maps", nargs="+", default=list(DEFAULT_MAPS))
     parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
     parser.add_argument("--pairs-per-map", type=int, default=30)
-    parser.add_argument("--sizes", nargs="*", type=int, default=[200, 400, 800, 1600])
+    parser.add_argument(
+        "--sizes", nargs="*", type=int, default=[200, 400, 800, 1600, 2400, 3200, 4000]
+    )
+    parser.add_argument("--scaling-methods", nargs="*", default=list(SCALING_METHODS))
     parser.add_argument("--size-repeats", type=int, default=5)
     parser.add_argument("--seed", type=int, default=2020)
     parser.add_argument("--out", type=Path, default=Path("results/bench_merge"))
@@ -214,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     if maps_dir() is None:
         print("error: the real maps folder was not found; set TOMOSIM_MAPS to it", file=sys.stderr)
         return 1
-    unknown = sorted(set(args.methods) - set(merging.available_methods()))
+    unknown = sorted(set(args.methods + args.scaling_methods) - set(merging.available_methods()))
     if unknown:
         print(
             f"error: unknown method(s) {unknown}; choose from {merging.available_methods()}",
@@ -236,8 +315,15 @@ def main(argv: list[str] | None = None) -> int:
     truth_psi = float(np.mean([r.truth_matching_index for r in rows]))
     # Write the accuracy report first, so that it survives a failure in the timing runs.
     args.out.with_suffix(".md").write_text(markdown(summary, per_map, {}, truth_psi) + "\n")
-    times = scaling(args.methods, args.sizes, args.size_repeats, args.seed) if args.sizes else {}
+    timed = [m for m in args.scaling_methods if m not in OPENCV_METHODS or has_opencv()]
+    if len(timed) < len(args.scaling_methods):
+        print('no OpenCV: timing without ros_*; pip install "tomosim[opencv]"', file=sys.stderr)
+    times = scaling(timed, args.sizes, args.size_repeats, args.seed) if args.sizes else {}
     report = markdown(summary, per_map, times, truth_psi)
+    if args.sizes:
+        padded = padded_scaling(PADDED_SIZES, args.size_repeats, args.seed)
+        shape = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml").shape
+        report += "\n" + padded_markdown(padded, shape)
     args.out.with_suffix(".md").write_text(report + "\n")
     if times:
         plot_scaling(times, args.out.with_suffix(".png"))

@@ -3,20 +3,27 @@
 Each command lives in its own module under :mod:`tomosim.commands`; this module
 only wires them as subcommands and turns their errors into a one-line message
 on stderr and an exit status: 0 success, 1 the command failed (unreadable
-input, unwritable output), 2 the command line is wrong.
+input, unwritable output), 2 the command line is wrong, 130 and 143 stopped by
+Ctrl-C (SIGINT) and SIGTERM. SIGTERM, what job schedulers and ``kill`` send,
+is handled as Ctrl-C is: a run stops cleanly and keeps what it wrote.
 """
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
-from types import ModuleType
+from importlib.metadata import PackageNotFoundError, version
+from types import FrameType, ModuleType
 
 from tomosim.commands import CommandError, Parser, UsageError, one_line
 from tomosim.commands import explore as explore_command
 from tomosim.commands import merge as merge_command
 from tomosim.commands import review as review_command
 from tomosim.commands import sweep as sweep_command
+from tomosim.commands.stopping import Stopped
 
 COMMANDS: tuple[ModuleType, ...] = (
     explore_command,
@@ -29,8 +36,16 @@ PROG = "tomosim"
 """The program name in messages."""
 EXIT_FAILURE, EXIT_USAGE = 1, 2
 """Exit statuses for a failed command and for a wrong command line."""
-EXIT_INTERRUPTED = 130
-"""Exit status after Ctrl-C: 128 + SIGINT, the shells' convention."""
+SIGNAL_EXIT_BASE = 128
+"""A process stopped by signal N exits with 128 + N, the shells' convention."""
+
+
+def package_version() -> str:
+    """The installed version of tomosim."""
+    try:
+        return version("tomosim")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown (not installed)"
 
 
 def build_parser() -> Parser:
@@ -39,6 +54,7 @@ def build_parser() -> Parser:
         prog=PROG,
         description="Multi-robot exploration testbed with tomographic occupancy-grid merging.",
     )
+    parser.add_argument("--version", action="version", version=f"{PROG} {package_version()}")
     commands = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND")
     commands.required = True
     for module in COMMANDS:
@@ -48,10 +64,25 @@ def build_parser() -> Parser:
     return parser
 
 
+def _stop_on_sigterm(signum: int, frame: FrameType | None) -> None:
+    raise Stopped(signal.SIGTERM)
+
+
+def _silence_stdout() -> None:
+    """Point standard output at the null device, so that exiting does not fail flushing it."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # no real file descriptor (captured output)
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line on ``argv`` (``sys.argv[1:]`` when None) and return the exit status."""
     parser = build_parser()
     arguments = list(sys.argv[1:] if argv is None else argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _stop_on_sigterm) if in_main_thread else None
     try:
         args = parser.parse_args(arguments)
         return int(args.run(args))
@@ -61,8 +92,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CommandError as exc:
         print(f"{PROG}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_FAILURE
-    except SystemExit as exc:  # --help prints and exits 0
+    except SystemExit as exc:  # --help and --version print and exit 0
         return exc.code if isinstance(exc.code, int) else EXIT_FAILURE
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        stopped = exc if isinstance(exc, Stopped) else Stopped(signal.SIGINT)
+        print(f"{PROG}: {stopped.describe()}", file=sys.stderr)
+        return SIGNAL_EXIT_BASE + stopped.signum
+    except BrokenPipeError:  # the reader of our output went away (tomosim ... | head)
+        _silence_stdout()
+        return EXIT_FAILURE
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

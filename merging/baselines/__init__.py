@@ -15,9 +15,13 @@ same result type, conventions and bad-input behaviour as the default:
 ``"orb"``                 ORB features + RANSAC (not in the paper)
 ``"registration"``        Fourier (log-polar + phase correlation) image
                           registration (REG), :mod:`merging.baselines.registration`
+``"ros_akaze"``,          the ROS ``multirobot_map_merge`` pipeline (OpenCV
+``"ros_orb"``             AKAZE or ORB, ``estimateAffinePartial2D``), with
+                          its own acceptance rule; needs the ``opencv``
+                          extra, :mod:`merging.baselines.ros`
 ========================  ==================================================
 
-The original baselines have no acceptance test; here each one's
+The paper's baselines have no acceptance test; here each one's
 ``confidence`` and ``accepted`` come from the shared verification
 (:func:`merging.baselines.common.verdict`), so that "accepted" means the
 same for every method. The rigid RANSAC fit is :mod:`merging.ransac`.

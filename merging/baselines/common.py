@@ -23,7 +23,8 @@ from scipy import ndimage
 from merging.grid import free_mask, occupied_mask
 from merging.refine import SmoothedMap, constraint_strength
 from merging.result import Hypothesis, MergeResult
-from merging.verify import ACCEPT_CONFIDENCE, confidence, prepare_map, verify
+from merging.verdict import CLOSE_FACTORS, refusal_reason
+from merging.verify import ACCEPT_CONFIDENCE, confidence_factors, prepare_map, verify
 
 OCCUPIED_GREY = 0.0
 """Image intensity of an occupied cell: walls are dark, as a map is drawn."""
@@ -113,16 +114,19 @@ def verdict(
     first, second = prepare_map(cells1), prepare_map(cells2)
     check = verify(first, second, matrix)
     strength = constraint_strength(SmoothedMap(first.walls, first.shape), second, matrix)
-    value = confidence(check, None, strength=strength)
+    factors = confidence_factors(check, None, strength=strength)
+    value = float(np.prod(factors))
     timings = {**timings, "verify": time.perf_counter() - clock}
     accepted = value >= ACCEPT_CONFIDENCE
-    reason = ""
-    if not accepted:
-        reason = (
-            f"confidence {value:.2f} below {ACCEPT_CONFIDENCE}: agreement "
-            f"{check.agreement:.2f}, conflict {check.conflict:.2f}, "
-            f"{check.agreeing:.0f} matching wall cells, constraint {strength:.1f}"
-        )
+    evidence = {
+        "agreement": check.agreement,
+        "conflict": check.conflict,
+        "matching_wall_cells": check.agreeing,
+        "shared_open_cells": check.shared_space,
+        "strength": strength,
+    }
+    evidence.update({f"close_{name}": f for name, f in zip(CLOSE_FACTORS, factors, strict=True)})
+    reason = "" if accepted else refusal_reason(factors, {}, evidence)
     if not hypotheses:
         own = check.quality if score is None else float(score)
         hypotheses = (Hypothesis(matrix, own, check.agreement, check.conflict, int(check.overlap)),)
@@ -134,4 +138,5 @@ def verdict(
         hypotheses=hypotheses,
         timings=timings,
         reason=reason,
+        evidence=evidence,
     )

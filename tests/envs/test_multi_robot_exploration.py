@@ -47,15 +47,25 @@ def test_max_cycles() -> None:
 
 
 def test_render() -> None:
-    def make(render_mode: str) -> Any:
-        # render_test first builds a "human" environment only to read its metadata;
-        # this environment draws rgb_array frames only.
-        supported = MultiRobotExplorationEnv.metadata["render_modes"]
-        return exploration.env(
-            **SMALL, render_mode=render_mode if render_mode in supported else None
-        )
+    render_test(lambda render_mode: exploration.env(**SMALL, render_mode=render_mode))
 
-    render_test(make)
+
+def test_human_mode_draws_each_step_into_its_figure() -> None:
+    """Without a display the human window is an off-screen figure showing the latest frame."""
+    env = small_env(render_mode="human", max_cycles=3)
+    frames = small_env(render_mode="rgb_array", max_cycles=3)
+    env.reset(seed=4)
+    frames.reset(seed=4)
+    actions = {agent: np.array([1.0, 0.5], np.float32) for agent in env.possible_agents}
+    env.step(actions)
+    frames.step(actions)
+    assert env.render() is None
+    window = env.window
+    assert window is not None and window.figure is not None
+    shown = window.figure.axes[0].images[0].get_array()
+    np.testing.assert_array_equal(np.asarray(shown), frames.render())
+    env.close()
+    assert window.figure is None
 
 
 def rollout(seed: int, steps: int) -> list[tuple[Any, ...]]:
@@ -156,7 +166,7 @@ def test_merge_infos_carry_truth_errors_and_unused_merges_change_nothing() -> No
 
 def test_bad_arguments_are_rejected() -> None:
     with pytest.raises(ValueError, match="render_mode"):
-        small_env(render_mode="human")
+        small_env(render_mode="ansi")
     with pytest.raises(ValueError, match="crop_resolution"):
         small_env(crop_resolution=0.07)
     with pytest.raises(ValueError, match="robots"):

@@ -10,6 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 import merging
 from merging.grid import OccupancyGrid
+from merging.resample import to_resolution
 
 from .conftest import UNMERGEABLE_CASES, unmergeable_pair
 
@@ -41,11 +42,29 @@ def test_unknown_method_is_named() -> None:
         merging.estimate_transform(grid, grid, method="nope")
 
 
-def test_different_resolutions_are_refused() -> None:
+def test_maps_of_different_resolutions_are_merged(building) -> None:
+    # The same building at 0.05 m and, coarsened by max-pooling, at 0.1 m: the cell
+    # matrix scales by 2 and the transform in metres is the frames' offset.
+    fine = OccupancyGrid(building, resolution=0.05, origin=(1.0, 2.0, 0.0))
+    coarse, to_coarse = to_resolution(OccupancyGrid(building, resolution=0.05), 0.1)
+    second = OccupancyGrid(coarse.data, resolution=0.1, origin=(-3.0, 0.5, 0.0))
+    result = merging.estimate_transform(fine, second)
+    assert result.accepted
+    assert result.matrix_metres is not None
+    assert np.allclose(result.matrix_metres[:2, :2], np.eye(2), atol=0.01)
+    assert np.allclose(result.matrix_metres[:2, 2], [4.0, 1.5], atol=0.05)
+    assert np.sqrt(abs(np.linalg.det(result.matrix[:2, :2]))) == pytest.approx(2.0, rel=0.01)
+    # The fused map keeps map 1's resolution and finds map 2's walls on map 1's.
+    fused = merging.merge(fine, second, result.matrix)
+    assert fused.grid is not None and fused.grid.resolution == 0.05
+    assert not np.allclose(to_coarse, np.eye(3))
+
+
+def test_fusing_needs_a_matrix_that_scales_by_the_resolutions() -> None:
     a = OccupancyGrid(np.zeros((5, 5), dtype=np.int8), resolution=0.05)
     b = OccupancyGrid(np.zeros((5, 5), dtype=np.int8), resolution=0.1)
-    with pytest.raises(ValueError, match="resolutions differ"):
-        merging.estimate_transform(a, b)
+    with pytest.raises(ValueError, match="must scale by 2"):
+        merging.merge(a, b, np.eye(3))
 
 
 @pytest.mark.parametrize("method", ["tomographic", "paper"])

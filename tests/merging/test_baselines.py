@@ -24,7 +24,7 @@ from merging.refine import SmoothedMap, constraint_strength
 from merging.transforms import apply_transform, rigid_matrix
 from merging.verify import confidence, prepare_map, verify
 
-from .conftest import UNMERGEABLE_CASES, unmergeable_pair
+from .conftest import UNMERGEABLE_CASES, synthetic_building, unmergeable_pair
 from .test_tomographic import turned
 
 BASELINES = ("spectral", "sift", "harris", "shi_tomasi", "orb", "registration")
@@ -145,7 +145,7 @@ def test_verdict_refuses_a_wrong_transform(building: np.ndarray) -> None:
     right = verdict(building, building, np.eye(3), method="x", timings=timings)
     wrong = verdict(building, building, rigid_matrix(60.0, 0.0, 0.0), method="x", timings=timings)
     assert right.accepted and not wrong.accepted
-    assert wrong.reason.startswith("confidence")
+    assert wrong.reason.startswith("the walls do not line up")
 
 
 def test_render_codes_walls_dark_free_light_unknown_grey() -> None:
@@ -216,3 +216,49 @@ def test_patches_turn_with_the_map(building: np.ndarray) -> None:
         turn = np.angle(np.exp(1j * (angles2[mine2][None, :] - angles1[mine1][:, None])))
         similarity = patches1[mine1] @ patches2[mine2].T
         assert np.any((np.abs(np.rad2deg(turn) - degrees) < ORIENTATION_DEG) & (similarity > 0.8))
+
+
+ROS_PIPELINES = ("ros_akaze", "ros_orb")
+
+
+@pytest.fixture(scope="module")
+def opencv():
+    """OpenCV, or a skip naming the install command."""
+    return pytest.importorskip(
+        "cv2", reason='the ROS pipeline baselines need OpenCV: pip install "tomosim[opencv]"'
+    )
+
+
+@pytest.mark.parametrize("method", ROS_PIPELINES)
+def test_ros_pipeline_recovers_a_known_transform(opencv, robot_map, method: str) -> None:
+    map2, truth = turned(robot_map, 65.0, (5.0, 12.0))
+    result = merging.estimate_transform(robot_map, map2, method=method, rng=1)
+    rms, rotation_error = transform_error(result.matrix, truth, map2)
+    assert rms < RIGHT_CELLS and rotation_error < 2 * RIGHT_DEGREES
+    assert result.accepted
+    # Its own acceptance rule: the pair confidence c of OpenCV's matcher, c / (1 + c).
+    assert result.confidence >= 0.5
+
+
+@pytest.mark.parametrize("method", ROS_PIPELINES)
+@pytest.mark.parametrize("case", UNMERGEABLE_CASES)
+def test_ros_pipeline_refuses_unmergeable_pairs(opencv, method: str, case: str) -> None:
+    result = merging.estimate_transform(*unmergeable_pair(case), method=method, rng=0)
+    assert not result.accepted and result.reason
+    assert np.all(np.isfinite(result.matrix))
+
+
+def test_ros_pipeline_without_opencv_names_the_install(monkeypatch) -> None:
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_cv2(name, *args, **kwargs):
+        if name == "cv2":
+            raise ImportError("No module named 'cv2'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_cv2)
+    grid = synthetic_building(4)
+    with pytest.raises(ImportError, match=r"tomosim\[opencv\]"):
+        merging.estimate_transform(grid, grid, method="ros_akaze")

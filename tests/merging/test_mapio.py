@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import errno
 import os
+import time
 from pathlib import Path
 
 import numpy as np
@@ -10,8 +12,16 @@ import pytest
 import yaml
 from PIL import Image
 
+from merging import mapio
 from merging.grid import OccupancyGrid
-from merging.mapio import PIXEL_FREE, PIXEL_OCCUPIED, PIXEL_UNKNOWN, load_map, save_map
+from merging.mapio import (
+    MAX_YAML_BYTES,
+    PIXEL_FREE,
+    PIXEL_OCCUPIED,
+    PIXEL_UNKNOWN,
+    load_map,
+    save_map,
+)
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 """The checkout's root (the folder holding pyproject.toml)."""
@@ -46,6 +56,7 @@ def test_save_then_load_is_exact(tmp_path: Path, image_format: str) -> None:
     rng = np.random.default_rng(7)
     data = rng.choice(np.array([-1, 0, 100], dtype=np.int8), size=(37, 53))
     grid = OccupancyGrid(data, resolution=0.1, origin=(-2.5, 3.25, 0.3))
+    (tmp_path / "sub").mkdir()
     image = save_map(grid, tmp_path / "sub" / "m.yaml", image_format=image_format)
     assert image == tmp_path / "sub" / f"m.{image_format}"
     loaded = load_map(tmp_path / "sub" / "m.yaml")
@@ -148,3 +159,72 @@ def test_save_refuses_arrays_and_unknown_formats(tmp_path: Path) -> None:
         save_map(np.zeros((2, 2), np.int8), tmp_path / "m.yaml")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="image_format"):
         save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), tmp_path / "m.yaml", image_format="jpg")
+
+
+ALIAS_BOMB = "\n".join(
+    ["a: &a [x, x, x, x, x, x, x, x, x]"]
+    + [f"{chr(98 + k)}: &{chr(98 + k)} [{', '.join(['*' + chr(97 + k)] * 9)}]" for k in range(8)]
+    + ["image: *i", "resolution: 0.05", "origin: [0, 0, 0]"]
+)
+"""About 400 bytes of nested aliases: the image name, written out, is 9**9 strings
+(gigabytes; a loader that expands aliases spends tens of seconds on it)."""
+ALIAS_REFUSAL_S = 1.0
+"""Seconds the alias YAML may take to be refused (expanding it takes tens of seconds)."""
+
+
+def test_nested_aliases_are_refused_quickly(tmp_path: Path) -> None:
+    path = tmp_path / "bomb.yaml"
+    path.write_text(ALIAS_BOMB)
+    assert len(ALIAS_BOMB) < 700
+    started = time.perf_counter()
+    with pytest.raises(ValueError, match="aliases are not allowed"):
+        load_map(path)
+    assert time.perf_counter() - started < ALIAS_REFUSAL_S
+
+
+def test_an_image_passed_as_yaml_is_named(tmp_path: Path) -> None:
+    image = save_map(
+        OccupancyGrid(np.zeros((4, 4), np.int8)), tmp_path / "m.yaml", image_format="png"
+    )
+    with pytest.raises(ValueError, match=r"m\.png is a PNG image, not a map_server YAML"):
+        load_map(image)
+    pgm = save_map(OccupancyGrid(np.zeros((4, 4), np.int8)), tmp_path / "n.yaml")
+    with pytest.raises(ValueError, match="PGM image"):
+        load_map(pgm)
+    binary = tmp_path / "blob.yaml"
+    binary.write_bytes(b"image: \xff\xfe\x00")
+    with pytest.raises(ValueError, match="not a text file"):
+        load_map(binary)
+
+
+def test_an_oversized_yaml_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "huge.yaml"
+    path.write_text("# " + "x" * (MAX_YAML_BYTES + 1))
+    with pytest.raises(ValueError, match="too large for a map_server YAML"):
+        load_map(path)
+
+
+def test_a_failed_yaml_write_leaves_the_old_pair_intact(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    old = OccupancyGrid(np.zeros((5, 6), np.int8), resolution=0.05)
+    save_map(old, tmp_path / "m.yaml")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def disk_full(path: Path, text: str) -> None:
+        path.write_bytes(text.encode()[:3])  # a few bytes land, then the disk is full
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(mapio, "_write_text", disk_full)
+    new = OccupancyGrid(np.full((9, 9), 100, np.int8), resolution=0.1, origin=(1.0, 2.0, 0.0))
+    with pytest.raises(OSError, match="No space left"):
+        save_map(new, tmp_path / "m.yaml")
+    after = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert after == before  # same files, same bytes, no temporary left behind
+    np.testing.assert_array_equal(load_map(tmp_path / "m.yaml").data, old.data)
+
+
+def test_save_needs_an_existing_folder(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), tmp_path / "no" / "m.yaml")
+    assert not (tmp_path / "no").exists()

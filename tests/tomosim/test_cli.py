@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from merging import OccupancyGrid, load_map, save_map
+from merging import OccupancyGrid, available_methods, load_map, save_map
 from merging.metrics import transform_error
 from tomosim.commands.demo_maps import demo_pair
 from tomosim.commands.merge_report import format_table
@@ -16,7 +16,7 @@ from tomosim.commands.merge_report import format_table
 from .cli_support import assert_one_line_error, run
 
 MAX_ERROR_CELLS = 2.0
-"""RMS error, in cells, the merger is held to (DESIGN.md's accuracy target)."""
+"""RMS error, in cells, the merger is held to (the project's accuracy target for merges)."""
 
 
 def write_grid(path: Path, seed: int) -> Path:
@@ -112,11 +112,23 @@ def test_unwritable_output_folder_exits_1_before_merging(
     first, second = write_grid(tmp_path / "a.yaml", 1), write_grid(tmp_path / "b.yaml", 2)
     blocker = tmp_path / "file"
     blocker.write_text("a file where a folder should be")
-    output = blocker / "sub" / "m.yaml"
-    status, out, err = run(["merge", str(first), str(second), "-o", str(output)], capsys)
+    status, out, err = run(
+        ["merge", str(first), str(second), "-o", str(blocker / "m.yaml")], capsys
+    )
     assert status == 1
     assert out == ""
     assert_one_line_error(err, "cannot write", "not a directory")
+
+
+def test_a_missing_output_folder_is_not_created(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first, second = write_grid(tmp_path / "a.yaml", 1), write_grid(tmp_path / "b.yaml", 2)
+    output = tmp_path / "no" / "such" / "m.yaml"
+    status, out, err = run(["merge", str(first), str(second), "-o", str(output)], capsys)
+    assert status == 1 and out == ""
+    assert_one_line_error(err, "folder", "does not exist", "-o")
+    assert not (tmp_path / "no").exists()
 
 
 def test_output_that_is_a_directory_exits_1(
@@ -136,7 +148,7 @@ def test_merge_two_saved_maps_end_to_end(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     first, second, truth = demo_files
-    output = tmp_path / "out" / "merged.yaml"
+    output = tmp_path / "merged.yaml"
     status, out, err = run(["merge", str(first), str(second), "-o", str(output), "--json"], capsys)
     assert status == 0, err
     report = json.loads(out)
@@ -157,6 +169,32 @@ def test_merge_two_saved_maps_end_to_end(
         atol=1e-6,
     )
     assert report["unlinked"] == [] and report["reference"]["index"] == 0
+
+
+def test_merge_maps_of_different_resolutions(
+    demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Map 2 saved at half the resolution (each 2 x 2 block as one cell): merged, and
+    # the pair's transform in metres matches the one between the full-resolution maps.
+    first, second, _ = demo_files
+    fine = load_map(second)
+    blocks = fine.data[: fine.shape[0] // 2 * 2, : fine.shape[1] // 2 * 2]
+    coarse = blocks.reshape(fine.shape[0] // 2, 2, fine.shape[1] // 2, 2).max(axis=(1, 3))
+    halved = tmp_path / "coarse.yaml"
+    save_map(OccupancyGrid(coarse, resolution=2 * fine.resolution, origin=fine.origin), halved)
+    runs = {}
+    for name, path in (("fine", second), ("coarse", halved)):
+        output = tmp_path / f"{name}_merged.yaml"
+        status, out, err = run(
+            ["merge", str(first), str(path), "-o", str(output), "--json"], capsys
+        )
+        assert status == 0, err
+        report = json.loads(out)
+        assert report["unlinked"] == []
+        runs[name] = report["maps"][1]["metres"]
+    fine_pose, coarse_pose = runs["fine"], runs["coarse"]
+    assert np.hypot(fine_pose["x"] - coarse_pose["x"], fine_pose["y"] - coarse_pose["y"]) < 0.15
+    assert abs(fine_pose["theta_deg"] - coarse_pose["theta_deg"]) < 0.5
 
 
 def test_table_output_is_aligned(
@@ -209,19 +247,43 @@ def test_demo_table_shows_truth_beside_estimate(
     assert lines.index(estimated) == lines.index(true_line) + 1
 
 
-def test_unlinkable_map_is_reported_and_left_out(
+def test_unlinkable_maps_exit_1_and_write_nothing(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """A map without walls cannot be placed: the merge still succeeds, without it."""
+    """A map without walls cannot be placed: the merge fails unless --partial is given."""
     first, _, _ = demo_files
     empty = tmp_path / "empty.yaml"
     save_map(OccupancyGrid(np.zeros((30, 30), np.int8)), empty)
     output = tmp_path / "m.yaml"
-    status, out, err = run(["merge", str(first), str(empty), "-o", str(output), "--json"], capsys)
+    status, out, err = run(["merge", str(first), str(empty), "-o", str(output)], capsys)
+    assert status == 1
+    assert "not written" in out  # the report still shows the pairs, to see why
+    assert_one_line_error(err, "could not link", "empty.yaml", "--partial")
+    assert not output.exists() and not output.with_suffix(".pgm").exists()
+
+
+def test_partial_merge_writes_the_linked_maps(
+    demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first, _, _ = demo_files
+    empty = tmp_path / "empty.yaml"
+    save_map(OccupancyGrid(np.zeros((30, 30), np.int8)), empty)
+    output = tmp_path / "m.yaml"
+    argv = ["merge", str(first), str(empty), "-o", str(output), "--json", "--partial"]
+    status, out, err = run(argv, capsys)
     assert status == 0
     report = json.loads(out)
-    assert report["unlinked"] == [1]
+    assert report["unlinked"] == [1] and report["written"] is True
     assert report["maps"][1]["linked"] is False
     assert any(note.startswith("grid 1 not linked") for note in report["notes"])
     np.testing.assert_array_equal(load_map(output).data, load_map(first).data)
     assert err.count("\n") == 1 and "empty.yaml" in err and "warning" in err
+
+
+def test_help_lists_methods_and_version(capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, _ = run(["merge", "--help"], capsys)
+    assert status == 0
+    assert all(method in out for method in available_methods())
+    assert "available_methods()" not in out
+    status, out, _ = run(["--version"], capsys)
+    assert status == 0 and out.startswith("tomosim ") and out.strip() != "tomosim"

@@ -5,20 +5,29 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from merging import OccupancyGrid, save_map
-from tests.tomosim.test_recording import verify
+from tests.tomosim.test_recording import free_port, verify, write_foreign
 from tomosim.cli import main
+from tomosim.commands import progress
 
 from .cli_support import assert_one_line_error, run
 
 SHORT_RUN = ["--robots", "2", "--steps", "60", "--merge-interval", "20", "--seed", "3"]
 """A run short enough for the suite: two robots, three merge rounds on the default floor."""
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+STOP_TIMEOUT_S = 120.0
+"""Longest wait for a run in its own process to get going, or to stop once signalled."""
+RECORDED_BYTES = 800_000
+"""Bytes of recording after which a run is stopped: the world and some steps."""
 
 
 @pytest.fixture(scope="module")
@@ -148,7 +157,9 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
 @pytest.mark.parametrize(
     ("argv", "fragments"),
     [
-        (["explore", "--robots", "0"], ["--robots must be at least 1, got 0"]),
+        (["explore", "--robots", "0"], ["--robots must be from 1 to 16, got 0"]),
+        (["explore", "--robots", "5000"], ["--robots must be from 1 to 16, got 5000", "pairs"]),
+        (["explore", "--spawn", "--serve-web"], ["not allowed with"]),
         (["explore", "--steps", "0"], ["--steps"]),
         (["explore", "--merge-interval", "0"], ["--merge-interval"]),
         (["explore", "--method", "nope"], ["unknown method 'nope'"]),
@@ -173,11 +184,12 @@ def test_usage_errors_exit_2_with_one_line(
 
 def test_missing_map_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     missing = tmp_path / "nowhere.yaml"
-    status, _, err = run(
-        ["explore", "--world", str(missing), "--record", str(tmp_path / "r.rrd")], capsys
-    )
+    earlier = tmp_path / "r.rrd"
+    earlier.write_bytes(b"an earlier run's recording")
+    status, _, err = run(["explore", "--world", str(missing), "--record", str(earlier)], capsys)
     assert status == 1
     assert_one_line_error(err, "not found", "nowhere.yaml")
+    assert earlier.read_bytes() == b"an earlier run's recording"  # a run that never started
 
 
 def test_bad_yaml(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -215,4 +227,141 @@ def test_review_of_a_missing_or_foreign_file(
     junk.write_bytes(b"\x00" * 64)
     status, _, err = run(["review", str(junk)], capsys)
     assert status == 1
-    assert_one_line_error(err, "cannot read")
+    assert_one_line_error(err, "junk.rrd is not a rerun recording", "tomosim explore")
+    other = tmp_path / "other.rrd"
+    write_foreign(other, "somebody_else", "{}")
+    status, _, err = run(["review", str(other)], capsys)
+    assert status == 1
+    assert_one_line_error(err, "other.rrd", "'somebody_else', not of 'tomosim'")
+    odd = tmp_path / "odd.rrd"
+    write_foreign(odd, "tomosim", "not json")
+    status, _, err = run(["review", str(odd)], capsys)
+    assert status == 1
+    assert_one_line_error(err, "odd.rrd", "run/config is not JSON")
+
+
+def test_a_world_without_room_for_the_team(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    room = np.full((60, 60), 100, np.int8)
+    room[5:-5, 5:-5] = 0  # 2.5 m square of free space
+    path = write_map(tmp_path, room)
+    argv = ["explore", "--world", str(path), "--robots", "16", "--no-record"]
+    status, _, err = run(argv, capsys)
+    assert status == 1
+    assert_one_line_error(err, "map.yaml", "has room for only", "use --robots")
+    assert "min_separation" not in err
+
+
+def test_a_recording_that_cannot_be_created(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    dangling = tmp_path / "run.rrd"
+    dangling.symlink_to(tmp_path / "gone" / "run.rrd")
+    status, _, err = run(["explore", "--steps", "3", "--record", str(dangling)], capsys)
+    assert status == 1
+    assert_one_line_error(err, "cannot write the recording", "run.rrd")
+
+
+def test_a_recording_that_fails_while_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Writes to /dev/full fail as on a full disk: one line naming the file, no traceback."""
+    if not Path("/dev/full").exists():
+        pytest.skip("needs /dev/full to stand for a full disk")
+    full = tmp_path / "full.rrd"
+    full.symlink_to("/dev/full")
+    status, _, err = run(
+        ["explore", "--robots", "2", "--steps", "30", "--record", str(full)], capsys
+    )
+    assert status == 1
+    assert_one_line_error(err, "full.rrd")
+
+
+def test_no_record_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    status, out, _ = run(["explore", "--robots", "2", "--steps", "5", "--no-record"], capsys)
+    assert status == 0 and "team coverage" in out
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_connect_without_a_viewer_fails_before_running(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    url = f"rerun+http://127.0.0.1:{free_port()}/proxy"
+    argv = ["explore", "--connect", url, "--record", str(tmp_path / "r.rrd")]
+    status, out, err = run(argv, capsys)
+    assert status == 1 and out == ""
+    assert_one_line_error(err, "no viewer listens at", url, "rerun")
+
+
+def test_progress_lines_when_not_on_a_terminal(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(progress, "LINE_INTERVAL_S", 0.0)
+    argv = ["explore", *SHORT_RUN, "--steps", "12", "--record", str(tmp_path / "p.rrd")]
+    status, _, err = run(argv, capsys)
+    assert status == 0
+    lines = err.splitlines()
+    assert "explore: 1/12 steps, team coverage" in lines[0]
+    assert lines[-1].startswith("explore: 12/12 steps, team coverage")
+
+
+def explore_in_background(record: Path) -> subprocess.Popen[str]:
+    """``tomosim explore`` in its own process, long enough to be stopped midway."""
+    command = [
+        sys.executable, "-m", "tomosim.cli", "explore", "--robots", "2", "--steps", "1500",
+        "--coverage-target", "1.0", "--record", str(record),
+    ]  # fmt: skip
+    return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_steps(record: Path, process: subprocess.Popen[str]) -> None:
+    """Wait until the run has flushed part of its recording, well before it ends."""
+    deadline = time.monotonic() + STOP_TIMEOUT_S
+    while time.monotonic() < deadline:
+        assert process.poll() is None, process.communicate()
+        if record.is_file() and record.stat().st_size > RECORDED_BYTES:
+            return
+        time.sleep(0.1)
+    process.kill()
+    pytest.fail(f"the run wrote less than {RECORDED_BYTES} bytes in {STOP_TIMEOUT_S} s")
+
+
+def test_sigterm_stops_explore_cleanly(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    record = tmp_path / "stopped.rrd"
+    process = explore_in_background(record)
+    wait_for_steps(record, process)
+    process.send_signal(signal.SIGTERM)
+    out, err = process.communicate(timeout=STOP_TIMEOUT_S)
+    assert process.returncode == 128 + signal.SIGTERM
+    assert out == ""
+    line = [line for line in err.splitlines() if line.startswith("tomosim:")]
+    assert line == [line[0]] and "terminated (SIGTERM)" in line[0]
+    assert f"tomosim review {record}" in line[0] and "Traceback" not in err
+    verify(record)  # closed properly: footer and all
+    status, report_text, _ = run(["review", str(record), "--json", "--no-png"], capsys)
+    assert status == 0
+    report = json.loads(report_text)
+    assert report["finished"] is False
+    assert report["status"].startswith("did not finish: interrupted at step")
+    assert report["status"].endswith("SIGTERM")
+    assert 0 < report["steps"] < 1500
+
+
+def test_review_marks_a_killed_run_unfinished_and_reads_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    record = tmp_path / "killed.rrd"
+    process = explore_in_background(record)
+    wait_for_steps(record, process)
+    process.kill()
+    process.communicate(timeout=STOP_TIMEOUT_S)
+    status, out, err = run(["review", str(record), "--no-png"], capsys)
+    assert status == 0
+    assert "run did not finish" in out and "killed" in out
+    assert "tomosim: warning:" in err and "killed.rrd" in err
+    steps = int(out.split("\nsteps")[1].split()[0])
+    assert steps > 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -11,8 +12,12 @@ from pathlib import Path
 
 import pytest
 
+from merging import available_methods
+from tomosim.cli import main
 from tomosim.sweep import ROW_FIELDS, ResultsFile, SweepPlan, run_sweep
 from tomosim.sweep.rows import TIMING_FIELDS
+
+from .cli_support import assert_one_line_error
 
 SMALL = {"world_size": (15.0, 10.0), "steps": 120, "merge_interval": 40}
 """A small floor and short episodes: about a second each."""
@@ -65,8 +70,16 @@ def test_process_and_ray_give_the_same_rows(tmp_path: Path) -> None:
     pytest.importorskip("ray", reason='Ray is optional: pip install "tomosim[ray]"')
     plan = four_episodes()
     local = run_sweep(plan, tmp_path / "process.csv", executor="process", workers=2)
-    remote = run_sweep(plan, tmp_path / "ray.csv", executor="ray", workers=2)
+    reported: set[str] = set()
+    remote = run_sweep(
+        plan,
+        tmp_path / "ray.csv",
+        executor="ray",
+        workers=2,
+        on_step=lambda key, step, coverage: reported.add(key),
+    )
     assert local.ran == remote.ran == 4
+    assert reported == {e.key for e in plan.episodes()}  # running episodes report on Ray too
     rows = without_timing(ResultsFile(local.results).rows())
     assert rows == without_timing(ResultsFile(remote.results).rows())
     assert {row["method"] for row in rows} == {"tomographic", "none"}
@@ -128,3 +141,153 @@ def test_foreign_csv_is_refused(tmp_path: Path) -> None:
     out.write_text("a,b\n1,2\n")
     with pytest.raises(ValueError, match="not a tomosim sweep results file"):
         ResultsFile(out).rows()
+
+
+def sweep_command(out: Path, *, seeds: int, workers: int, steps: int) -> list[str]:
+    """``tomosim sweep`` of ``seeds`` merging episodes on the small floor, in its own process."""
+    return [
+        sys.executable, "-m", "tomosim.cli", "sweep", "--worlds", "1", "--robots", "2",
+        "--seeds", *map(str, range(seeds)), "--steps", str(steps), "--world-size", "15", "10",
+        "--coverage-target", "1.0", "--workers", str(workers), "--out", str(out),
+    ]  # fmt: skip
+
+
+def start(command: list[str]) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        command, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+
+
+def wait_for_workers(process: subprocess.Popen[str], count: int) -> list[int]:
+    """The pids of ``count`` pool workers of ``process``, once they run."""
+    psutil = pytest.importorskip("psutil")
+    deadline = time.monotonic() + KILL_TIMEOUT_S
+    while time.monotonic() < deadline:
+        assert process.poll() is None, process.communicate()
+        children = psutil.Process(process.pid).children(recursive=True)
+        workers = [c for c in children if "resource_tracker" not in " ".join(c.cmdline())]
+        if len(workers) >= count and all(c.create_time() < time.time() - 1 for c in workers):
+            return [c.pid for c in workers]
+        time.sleep(0.2)
+    pytest.fail(f"the sweep did not start {count} workers in {KILL_TIMEOUT_S} s")
+
+
+def gone(pids: list[int]) -> bool:
+    """Whether every process of ``pids`` has ended (a zombie waiting to be reaped counts)."""
+    psutil = pytest.importorskip("psutil")
+    for pid in pids:
+        try:
+            if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                return False
+        except psutil.NoSuchProcess:
+            continue
+    return True
+
+
+def wait_until_gone(pids: list[int]) -> bool:
+    deadline = time.monotonic() + WORKERS_END_S
+    while time.monotonic() < deadline and not gone(pids):
+        time.sleep(0.1)
+    return gone(pids)
+
+
+WORKERS_END_S = 10.0
+"""Longest time pool workers may outlive their parent."""
+
+
+def test_a_second_sweep_on_the_same_file_refuses(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "rows.csv"
+    first = start(sweep_command(out, seeds=2, workers=1, steps=1500))
+    try:
+        wait_for_workers(first, 1)  # by then the first sweep holds the file
+        status = main(sweep_command(out, seeds=2, workers=1, steps=1500)[3:])
+        err = capsys.readouterr().err
+        assert status == 1
+        assert_one_line_error(err, "rows.csv is being written by another sweep", "--out")
+    finally:
+        os.killpg(first.pid, signal.SIGKILL)
+        first.communicate()
+    assert ResultsFile(out).rows() == []  # the refused sweep wrote nothing
+
+
+def test_workers_end_with_a_killed_parent(tmp_path: Path) -> None:
+    process = start(sweep_command(tmp_path / "rows.csv", seeds=2, workers=2, steps=1500))
+    try:
+        workers = wait_for_workers(process, 2)
+        os.kill(process.pid, signal.SIGKILL)  # the parent alone: its workers are orphaned
+        process.communicate()
+        assert wait_until_gone(workers), "pool workers outlived their killed parent"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+
+
+def test_sigterm_stops_the_sweep_and_says_how_to_resume(tmp_path: Path) -> None:
+    out = tmp_path / "rows.csv"
+    process = start(sweep_command(out, seeds=2, workers=2, steps=1500))
+    try:
+        workers = wait_for_workers(process, 2)
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=KILL_TIMEOUT_S)
+        assert process.returncode == 128 + signal.SIGTERM
+        (line,) = [line for line in err.splitlines() if line.startswith("tomosim:")]
+        assert "terminated (SIGTERM)" in line and "--resume" in line and str(out) in line
+        assert "Traceback" not in err
+        assert wait_until_gone(workers)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
+
+
+def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
+    plan = SweepPlan(worlds=("1",), robots=(2,), methods=("none",), seeds=(0,), **SMALL)  # type: ignore[arg-type]
+    reports: list[tuple[str, int, float]] = []
+    rows: list[dict] = []
+    run_sweep(
+        plan,
+        tmp_path / "rows.csv",
+        workers=1,
+        on_step=lambda key, step, coverage: reports.append((key, step, coverage)),
+        progress=rows.append,
+    )
+    assert rows and reports
+    assert {key for key, _, _ in reports} == {rows[0]["key"]}
+    assert all(0 < step <= int(rows[0]["steps"]) for _, step, _ in reports)
+    assert all(0.0 < coverage <= 1.0 for _, _, coverage in reports)
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragments", "status"),
+    [
+        (["--robots", "40"], ["--robots must be from 1 to 16, got 40"], 2),
+        (["--out", "/no/such/folder/rows.csv"], ["/no/such/folder", "does not exist"], 1),
+    ],
+)
+def test_sweep_errors_are_one_line(
+    argv: list[str], fragments: list[str], status: int, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = ["sweep", "--out", "rows.csv"] if "--out" not in argv else ["sweep"]
+    assert main([*base, *argv]) == status
+    assert_one_line_error(capsys.readouterr().err, *fragments)
+
+
+def test_sweep_help_gives_every_option_a_default(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sweep", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for option in ("--robots", "--seeds", "--steps", "--merge-interval", "--coverage-target"):
+        after = text.split(f"{option} ")[-1]
+        assert "default" in after.split(" --")[0], option
+    assert all(method in text for method in available_methods())
+
+
+def test_an_unwritable_results_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    dangling = tmp_path / "rows.csv"
+    dangling.symlink_to(tmp_path / "gone" / "rows.csv")
+    assert main(["sweep", "--out", str(dangling), "--steps", "5"]) == 1
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "cannot write", "rows.csv", "--out")
+    assert "Errno" not in err

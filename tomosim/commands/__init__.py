@@ -3,13 +3,25 @@
 A command module provides ``NAME`` and ``HELP`` (str), ``add_arguments(parser)``
 and ``run(args) -> int``; :mod:`tomosim.cli` lists the modules and wires them
 as subcommands. Commands report bad input by raising :class:`UsageError` (exit
-status 2) or :class:`CommandError` (exit status 1) with a one-line message.
+status 2) or :class:`CommandError` (exit status 1) with a one-line message that
+names the file or value and what to do.
+
+Importing this package quiets rerun's own log lines about failed writes and
+lost viewers (unless ``RUST_LOG`` is set): the commands report those failures
+themselves, in one line.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+from pathlib import Path
 from typing import NoReturn
+
+RERUN_LOG_FILTER = "warn,re_log_encoding=off,re_sdk::recording_stream=off,re_grpc_client=off"
+"""``RUST_LOG`` for rerun's Rust side (read when rerun is first imported): warnings,
+but not those the commands turn into their own messages."""
+os.environ.setdefault("RUST_LOG", RERUN_LOG_FILTER)
 
 
 class UsageError(Exception):
@@ -30,3 +42,23 @@ class Parser(argparse.ArgumentParser):
 def one_line(message: object) -> str:
     """``message`` as text with every run of whitespace, newlines included, made one space."""
     return " ".join(str(message).split())
+
+
+def check_writable(output: Path, *, option: str) -> None:
+    """Raise :class:`CommandError` unless ``output`` can be created in a folder that exists.
+
+    Missing folders are not created: a typo in a path should not leave new
+    folders behind (``option`` names the option in the message).
+    """
+    folder = output.absolute().parent
+    if output.is_dir():
+        raise CommandError(f"cannot write {output}: it is a directory; give a file to {option}")
+    if not folder.exists():
+        raise CommandError(
+            f"cannot write {output}: folder {folder} does not exist; create it or give "
+            f"{option} another path"
+        )
+    if not folder.is_dir():
+        raise CommandError(f"cannot write {output}: {folder} is not a directory")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise CommandError(f"cannot write {output}: folder {folder} is not writable")

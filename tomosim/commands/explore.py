@@ -3,29 +3,42 @@
 Runs one episode of frontier exploration (:func:`tomosim.episode.run_episode`):
 three robots on the default generated floor plan, coordinated by the default
 policy, merging every 50 steps with the tomographic method, until the team
-knows 90 % of the free space. It shows a
-progress bar, records the episode to an ``.rrd`` file, and ends with a summary:
-coverage, steps, and per pair the merges accepted and their errors against the
-simulator's truth (or JSON with ``--json``).
+knows 90 % of the free space. It shows
+progress (a bar on a terminal, a line every few seconds elsewhere), records
+the episode to an ``.rrd`` file, and ends with a summary: coverage, steps, and
+per pair the merges accepted and their errors against the simulator's truth
+(or JSON with ``--json``).
+
+The run can be watched live as rerun's own examples offer it: ``--spawn`` a
+viewer window, ``--connect`` to a running viewer, or ``--serve-web`` a web
+viewer for a browser elsewhere (the way on a machine without a display);
+``--no-record`` writes no file. Ctrl-C or SIGTERM stop the run cleanly: the
+recording keeps what was logged and says that the run was interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
-import os
+import sys
+import time
 from pathlib import Path
 
 from PIL import Image
-from tqdm import tqdm
 
 from merging.api import DEFAULT_METHOD
-from tomosim.commands import CommandError, UsageError, one_line
+from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore_report import render_summary
+from tomosim.commands.progress import Progress
+from tomosim.commands.stopping import Stopped
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
+from tomosim.recording import LiveViewer, Recorder, RecordingError
+from tomosim.recording.sinks import DEFAULT_VIEWER_URL, DEFAULT_WEB_PORT
 from tomosim.team import ORACLE, team_methods
+from tomosim.worlds.world import NoRoomError
 
 NAME = "explore"
 """The subcommand's name."""
@@ -35,6 +48,15 @@ DEFAULTS = EpisodeConfig()
 """The episode run without options."""
 DEFAULT_RECORD = Path("explore.rrd")
 """Recording written unless ``--record`` names another file."""
+MAX_ROBOTS = 16
+"""Most robots a run may have: every merge round estimates all N (N - 1) / 2 pairs
+of maps, so its time grows with the square of the team. Measured on floor 0 on a
+loaded 2-core machine (``tomosim explore --robots N --merge-interval 100
+--coverage-target 1.0 --no-record --json``): 120 pairs and 3.2-3.7 s a round at
+16 robots, 496 pairs and 14 s at 32; 200 robots would take some ten minutes a
+round."""
+SERVE_POLL_S = 0.5
+"""Seconds between two checks for Ctrl-C while the web viewer serves a finished run."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,10 +65,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--world",
         default=str(DEFAULT_WORLD_SEED),
         help="a generated floor plan's seed, or a map_server YAML file "
-        f"(default: floor plan {DEFAULT_WORLD_SEED})",
+        f"(default: floor plan {DEFAULT_WORLD_SEED}, 30 m x 20 m)",
     )
     parser.add_argument(
-        "--robots", type=int, default=DEFAULTS.robots, help=f"default {DEFAULTS.robots}"
+        "--robots",
+        type=int,
+        default=DEFAULTS.robots,
+        help=f"number of robots, 1 to {MAX_ROBOTS} (default {DEFAULTS.robots})",
     )
     parser.add_argument(
         "--policy",
@@ -64,7 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--merge-interval",
         type=int,
         default=DEFAULTS.merge_interval,
-        help=f"steps between merge rounds (default {DEFAULTS.merge_interval})",
+        help=f"steps between merge rounds (default {DEFAULTS.merge_interval}, "
+        f"{DEFAULTS.merge_interval / 10:g} s)",
     )
     parser.add_argument(
         "--method",
@@ -101,15 +127,45 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         default=DEFAULT_RECORD,
         metavar="PATH",
-        help=f".rrd file to record to (default {DEFAULT_RECORD})",
+        help=f".rrd file to record to; its folder must exist (default {DEFAULT_RECORD})",
     )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_live_arguments(parser)
+
+
+def add_live_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options to watch a run live (module docstring)."""
+    live = parser.add_mutually_exclusive_group()
+    live.add_argument(
+        "--spawn", action="store_true", help="watch live in a new rerun viewer window"
+    )
+    live.add_argument(
+        "--connect",
+        nargs="?",
+        const=DEFAULT_VIEWER_URL,
+        default=None,
+        metavar="URL",
+        help=f"watch live in a running rerun viewer (default URL {DEFAULT_VIEWER_URL})",
+    )
+    live.add_argument(
+        "--serve-web",
+        action="store_true",
+        help=f"serve a web viewer on port {DEFAULT_WEB_PORT} and keep serving after the run "
+        "until Ctrl-C (watch from a browser; for machines without a display)",
+    )
+    parser.add_argument(
+        "--no-record", action="store_true", help="write no .rrd file (watch live only, or not)"
+    )
 
 
 def build_config(args: argparse.Namespace) -> EpisodeConfig:
     """The episode the command line asks for; :class:`UsageError` when it cannot be."""
-    if args.robots < 1:
-        raise UsageError(f"--robots must be at least 1, got {args.robots}")
+    if not 1 <= args.robots <= MAX_ROBOTS:
+        raise UsageError(
+            f"--robots must be from 1 to {MAX_ROBOTS}, got {args.robots} (a merge round "
+            f"estimates every pair of maps: {MAX_ROBOTS * (MAX_ROBOTS - 1) // 2} pairs at "
+            f"{MAX_ROBOTS} robots)"
+        )
     if args.steps < 1:
         raise UsageError(f"--steps must be at least 1, got {args.steps}")
     if args.merge_interval < 1:
@@ -145,39 +201,115 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         comm_range=args.comm_range,
         line_of_sight=args.line_of_sight,
         seed=args.seed,
-        record=args.record,
+        record=None if args.no_record else args.record,
     )
 
 
-def check_writable(output: Path) -> None:
-    """Raise :class:`CommandError` unless ``output`` can be created in its folder."""
-    folder = output.absolute().parent
-    if output.is_dir():
-        raise CommandError(f"cannot write {output}: it is a directory")
-    if not folder.is_dir():
-        raise CommandError(f"cannot write {output}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise CommandError(f"cannot write {output}: folder {folder} is not writable")
+def live_viewer(args: argparse.Namespace) -> LiveViewer | None:
+    """The :class:`~tomosim.recording.LiveViewer` the options ask for, or None."""
+    if args.spawn:
+        return LiveViewer("spawn")
+    if args.connect is not None:
+        return LiveViewer("connect", url=args.connect)
+    if args.serve_web:
+        return LiveViewer("serve-web")
+    return None
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the episode and print its summary; returns the exit status."""
     config = build_config(args)
-    assert config.record is not None  # the command always records
-    check_writable(config.record)
-    bar = tqdm(total=config.steps, unit="step", disable=None, leave=False)
+    live = live_viewer(args)
+    if config.record is not None:
+        check_writable(config.record, option="--record")
+    recorder = None
+    if config.record is not None or live is not None:
+        try:
+            recorder = Recorder.open(record=config.record, live=live)
+        except RecordingError as exc:
+            raise CommandError(one_line(exc)) from exc
+        if recorder.watch is not None:
+            print(f"tomosim: watch the run: {recorder.watch}", file=sys.stderr)
+    progress = Progress(config.steps, "step", label=NAME)
 
-    def progress(step: int, coverage: float) -> None:
-        bar.update(step - bar.n)
-        bar.set_postfix(coverage=f"{coverage:.3f}", refresh=False)
+    def report(step: int, coverage: float) -> None:
+        progress.update(step, f"team coverage {coverage:.3f}")
 
     try:
-        metrics = run_episode(config, progress=progress)
-    except FileNotFoundError as exc:
-        raise CommandError(one_line(exc)) from exc
+        metrics = run_episode(config, recorder=recorder, progress=report)
+    except KeyboardInterrupt as exc:
+        progress.close()
+        stopped = Stopped.of(exc, kept(config.record, progress.done))
+        if recorder is not None:
+            recorder.log_interrupted(stopped.why)
+            _close_quietly(recorder)
+        raise stopped from None
     except (ValueError, OSError, Image.DecompressionBombError) as exc:
-        raise CommandError(f"cannot explore {args.world}: {one_line(exc)}") from exc
-    finally:
-        bar.close()
+        progress.close()
+        if recorder is not None:
+            _close_quietly(recorder)
+        raise failure(exc, args.world) from exc
+    except BaseException:
+        progress.close()
+        if recorder is not None:
+            _close_quietly(recorder)
+        raise
+    progress.close(f"team coverage {metrics.coverage:.3f} after {metrics.steps} steps")
     print(json.dumps(metrics.as_dict(), indent=2) if args.json else render_summary(metrics))
+    if recorder is not None:
+        if live is not None and args.serve_web:
+            serve_until_stopped(recorder.watch)
+        close(recorder)
     return 0
+
+
+def kept(record: Path | None, step: int) -> str:
+    """What an interrupted run leaves behind, and how to look at it."""
+    if record is None:
+        return f"stopped at step {step}; nothing was recorded (--no-record)"
+    return (
+        f"{record} keeps the run up to step {step} and says it was interrupted; "
+        f"see it with: tomosim review {record}"
+    )
+
+
+def _close_quietly(recorder: Recorder) -> None:
+    """Close ``recorder`` while another error is being reported: that one matters."""
+    with contextlib.suppress(RecordingError):
+        recorder.close()
+
+
+def close(recorder: Recorder) -> None:
+    """Close ``recorder``; a recording that could not be written is a :class:`CommandError`."""
+    try:
+        recorder.close()
+    except RecordingError as exc:
+        raise CommandError(one_line(exc)) from exc
+    error = recorder.viewer_error
+    if error:
+        print(f"tomosim: warning: the live viewer stopped receiving: {error}", file=sys.stderr)
+
+
+def serve_until_stopped(watch: str | None) -> None:
+    """Keep this process (and so the web viewer) alive until Ctrl-C or SIGTERM."""
+    print(
+        f"tomosim: the run is over; the web viewer shows it at {watch} until you press Ctrl-C",
+        file=sys.stderr,
+    )
+    try:
+        while True:
+            time.sleep(SERVE_POLL_S)
+    except KeyboardInterrupt:
+        return
+
+
+def failure(exc: Exception, world: str) -> CommandError:
+    """The one-line :class:`CommandError` for a run that failed with ``exc``."""
+    if isinstance(exc, NoRoomError):
+        return CommandError(
+            f"cannot explore {world}: it has room for only {exc.placed} robots at their "
+            f"start separation; use --robots {max(exc.placed, 1)} or fewer, or a larger world"
+        )
+    if isinstance(exc, RecordingError | FileNotFoundError):
+        return CommandError(one_line(exc))
+    return CommandError(f"cannot explore {world}: {one_line(exc)}")

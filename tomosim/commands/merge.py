@@ -9,13 +9,17 @@ the pairwise confidences (or JSON with ``--json``).
 ``tomosim merge --demo [SEED] -o merged.yaml`` first writes two overlapping
 windows of a generated floor plan beside the output, the second rotated and
 shifted, merges them, and prints the true transform beside the estimate.
+
+A map that cannot be linked to the others is an error (exit status 1, nothing
+written) unless ``--partial`` asks for the merge of the maps that could be
+linked. The output's folder must exist; the image and the YAML are written as
+a pair, whole or not at all (:func:`merging.save_map`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -24,7 +28,8 @@ from PIL import Image
 
 from merging import OccupancyGrid, available_methods, load_map, merge_all, save_map
 from merging.api import DEFAULT_METHOD
-from tomosim.commands import CommandError, UsageError, one_line
+from merging.resample import common_resolution
+from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.demo_maps import DEMO_SEED, demo_pair
 from tomosim.commands.merge_report import render_table, summarise
 
@@ -42,12 +47,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the command's arguments on its subparser."""
     parser.add_argument("maps", nargs="*", type=Path, help="two or more map_server YAML files")
     parser.add_argument(
-        "-o", "--output", required=True, type=Path, help="YAML file to write the merged map to"
+        "-o",
+        "--output",
+        required=True,
+        type=Path,
+        help="YAML file to write the merged map to; the image goes beside it (.pgm) and "
+        "the folder must exist",
     )
     parser.add_argument(
         "--method",
         default=DEFAULT_METHOD,
-        help=f"merging method (default {DEFAULT_METHOD}; see merging.available_methods())",
+        help=f"merging method: {', '.join(available_methods())} (default {DEFAULT_METHOD})",
+    )
+    parser.add_argument(
+        "--partial",
+        action="store_true",
+        help="write the merge of the maps that could be linked even if some could not "
+        "(default: such a merge is an error and nothing is written)",
     )
     parser.add_argument(
         "--seed",
@@ -72,11 +88,12 @@ def run(args: argparse.Namespace) -> int:
     paths: list[Path] = list(args.maps)
     output: Path = args.output
     check_arguments(args, paths, output)
-    check_writable(output)
+    check_writable(output, option="-o")
     truth = None
     if args.demo is not None:
         paths, truth = write_demo(args.demo, output)
-    grids = [read_map(path) for path in paths]
+    # Maps of different resolutions are brought to the coarsest (each keeps its frame).
+    grids = common_resolution([read_map(path) for path in paths])
     try:
         result = merge_all(grids, method=args.method, rng=args.seed)
     except ValueError as exc:
@@ -84,14 +101,22 @@ def run(args: argparse.Namespace) -> int:
     fused = result.fused.grid
     if fused is None:  # load_map returns OccupancyGrids, so the fused map is one too
         raise CommandError("the fused map lost its georeference")
-    try:
-        save_map(fused, output)
-    except OSError as exc:
-        raise CommandError(f"cannot write {output}: {one_line(exc.strerror or exc)}") from exc
+    left_out = ", ".join(str(paths[k]) for k in result.unlinked)
+    written = not result.unlinked or args.partial
+    if written:
+        try:
+            save_map(fused, output)
+        except OSError as exc:
+            raise CommandError(f"cannot write {output}: {one_line(exc.strerror or exc)}") from exc
     summary = summarise(result, grids, paths, output, truth=truth)
+    summary["written"] = written
     print(json.dumps(summary, indent=2) if args.json else render_table(summary))
+    if not written:
+        raise CommandError(
+            f"could not link {left_out} to the other maps (no confident merge; see the pairs "
+            f"above); {output} was not written; pass --partial to write the merge of the rest"
+        )
     if result.unlinked:
-        left_out = ", ".join(str(paths[k]) for k in result.unlinked)
         print(f"tomosim: warning: not merged (no confident link): {left_out}", file=sys.stderr)
     return 0
 
@@ -116,19 +141,6 @@ def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -
     target = output.resolve()
     if any(path.resolve() == target for path in paths):
         raise UsageError(f"output {output} is also an input; choose another output file")
-
-
-def check_writable(output: Path) -> None:
-    """Raise :class:`CommandError` unless ``output``'s folder exists or can be made and written."""
-    if output.is_dir():
-        raise CommandError(f"cannot write {output}: it is a directory")
-    folder = output.absolute().parent
-    while not folder.exists():
-        folder = folder.parent
-    if not folder.is_dir():
-        raise CommandError(f"cannot write {output}: {folder} is not a directory")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise CommandError(f"cannot write {output}: directory {folder} is not writable")
 
 
 def read_map(path: Path) -> OccupancyGrid:

@@ -115,8 +115,9 @@ def format_table(
 def render_table(summary: dict[str, Any]) -> str:
     """The human-readable report of :func:`summarise`'s summary."""
     fused, reference = summary["fused"], summary["reference"]
+    written = "" if summary.get("written", True) else " (not written)"
     lines = [
-        f"merged map: {summary['output']} ({fused['rows']} x {fused['cols']} cells at "
+        f"merged map{written}: {summary['output']} ({fused['rows']} x {fused['cols']} cells at "
         f"{fused['resolution']:g} m), reference map {reference['index']} ({reference['path']})",
         "",
         "each map in the merged map: its cells -> merged grid cells (x, y, theta) and",

@@ -7,6 +7,11 @@ errors of accepted estimates against the simulator's truth, with the merged
 map's agreement with the truth), then the final figures, and writes a PNG:
 the final merged map beside the ground truth, the error curves and the
 coverage curve (``--png``, default ``RUN_summary.png`` beside the recording).
+
+A run that did not finish (interrupted, or killed so that its recording still
+says "running") is reported as such, first; a file cut short by a killed
+process is read up to its last whole message, with a warning. Recordings of
+other applications than tomosim are refused.
 """
 
 from __future__ import annotations
@@ -14,10 +19,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
-from tomosim.commands import CommandError, UsageError, one_line
+from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore_report import (
     pair_table,
     recorded_figures,
@@ -25,7 +31,7 @@ from tomosim.commands.explore_report import (
     summarise_pairs,
 )
 from tomosim.recording import RecordedRun, read_recording
-from tomosim.recording.paths import AGREEMENT
+from tomosim.recording.paths import AGREEMENT, STATUS_FINISHED, STATUS_RUNNING
 
 NAME = "review"
 """The subcommand's name."""
@@ -83,11 +89,31 @@ def timeline(run: RecordedRun) -> list[dict[str, Any]]:
     return rounds
 
 
+def describe_status(run: RecordedRun) -> str:
+    """How the run ended, in words, from ``run/status`` and the file's state."""
+    if not run.status:
+        return (
+            f"unknown end: the recording ends at step {run.last_step} and does not say how "
+            "the run ended (an older tomosim wrote it)"
+        )
+    if run.status.startswith(STATUS_RUNNING):
+        return (
+            f"did not finish: the recording ends at step {run.last_step} without saying how "
+            "the run ended (the process was killed or crashed)"
+        )
+    if run.status.startswith(STATUS_FINISHED):
+        return run.status
+    return f"did not finish: {run.status}"
+
+
 def summary(run: RecordedRun) -> dict[str, Any]:
     """Everything the command prints, as plain values."""
     coverage = run.coverage
     return {
         "recording": str(run.path),
+        "finished": run.finished,
+        "status": describe_status(run),
+        "notes": list(run.notes),
         "settings": run.settings,
         "steps": int(coverage.steps[-1]) if len(coverage.steps) else 0,
         "coverage": _number(coverage.last()),
@@ -99,7 +125,7 @@ def summary(run: RecordedRun) -> dict[str, Any]:
 def render(report: dict[str, Any]) -> str:
     """The text form of :func:`summary`."""
     s = report["settings"]
-    lines = [f"recording {report['recording']}"]
+    lines = [f"recording {report['recording']}", f"run {report['status']}"]
     if s:
         merging = f"merging every {s['merge_interval']} steps ({s['method']})"
         lines.append(
@@ -163,12 +189,15 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(one_line(exc)) from exc
     except ValueError as exc:
         raise CommandError(one_line(exc)) from exc
+    for note in recorded.notes:
+        print(f"tomosim: warning: {note}", file=sys.stderr)
     if not recorded.series:
         raise CommandError(f"{path} holds no tomosim figures; record it with tomosim explore")
     report = summary(recorded)
     png = None
     if not args.no_png:
         png = args.png if args.png is not None else path.with_name(path.stem + PNG_SUFFIX)
+        check_writable(png, option="--png")
         from tomosim.commands.review_plot import plot_summary  # matplotlib only when plotting
 
         try:

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from merging.grid import OccupancyGrid
 from tomosim.commands import CommandError
 from tomosim.recording import RecordedRun
-from tomosim.recording.paths import AGREEMENT, MERGED, TRUTH
+from tomosim.recording.paths import AGREEMENT, MERGED, MERGED_FRAME, TRUTH
 
 UNKNOWN_GREY = 205 / 255
 """Grey of unknown cells: map_server's 205."""
@@ -111,7 +111,7 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
         axes["merged"],
         None if merged is None else merged[1],
         "merged map" if merged is None else f"merged map at step {merged[0]}, placed by truth",
-        placement=run.poses.get(MERGED, (0.0, 0.0, 0.0)),
+        placement=run.poses.get(MERGED_FRAME, (0.0, 0.0, 0.0)),
         limits=limits,
     )
     for key, quantity, label in (
@@ -159,5 +159,12 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
             f"{'-' if coverage is None else f'{coverage:.3f}'} after {report['steps']} steps",
             fontsize=11,
         )
-    figure.savefig(path, dpi=DPI)
-    plt.close(figure)
+    if not report.get("finished", True):
+        figure.text(0.01, 0.01, f"run {report['status']}", color="darkred", fontsize=9)
+    partial = path.with_name(path.name + ".partial")
+    try:
+        figure.savefig(partial, dpi=DPI, format="png")
+        partial.replace(path)  # whole or not at all
+    finally:
+        plt.close(figure)
+        partial.unlink(missing_ok=True)

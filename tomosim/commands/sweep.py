@@ -7,21 +7,25 @@ Episodes run on a local process pool (``--executor process``, the default) or
 on Ray (``--executor ray``, ``pip install "tomosim[ray]"``; ``--ray-address``
 joins a running cluster, otherwise a local Ray is started). Each finished
 episode appends a row to the CSV file ``--out`` at once, so a killed sweep
-loses nothing; ``--resume`` runs only the episodes not yet in the file.
+loses nothing; ``--resume`` runs only the episodes not yet in the file. A
+sweep locks its file: a second sweep on the same ``--out`` refuses.
+
+Progress shows episodes done and, inside running episodes, their step and
+coverage (a bar on a terminal, a line every few seconds elsewhere).
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
-from tomosim.commands import CommandError, UsageError, one_line
+from tomosim.commands import CommandError, UsageError, check_writable, one_line
+from tomosim.commands.explore import MAX_ROBOTS
+from tomosim.commands.progress import Progress
+from tomosim.commands.stopping import Stopped
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
-from tomosim.sweep import EXECUTORS, NO_MERGE, SweepPlan, run_sweep
+from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, run_sweep
 from tomosim.team import team_methods
 
 NAME = "sweep"
@@ -33,24 +37,43 @@ HELP = "run many seeded episodes (worlds x robots x policies x methods x seeds),
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the command's arguments on its subparser."""
     plan = SweepPlan()
+    methods = ", ".join([*team_methods(), NO_MERGE])
     parser.add_argument(
-        "--worlds", nargs="+", default=list(plan.worlds),
-        help="generated floor-plan seeds and/or map_server YAML files (default: 0)",
+        "--worlds", nargs="+", default=list(plan.worlds), metavar="WORLD",
+        help="generated floor-plan seeds and/or map_server YAML files "
+        f"(default: {' '.join(plan.worlds)})",
     )  # fmt: skip
-    parser.add_argument("--robots", nargs="+", type=int, default=list(plan.robots))
+    parser.add_argument(
+        "--robots", nargs="+", type=int, default=list(plan.robots), metavar="N",
+        help=f"team sizes, 1 to {MAX_ROBOTS} (default: {' '.join(map(str, plan.robots))})",
+    )  # fmt: skip
     parser.add_argument(
         "--policies", nargs="+", default=list(plan.policies), metavar="POLICY",
         help=f"exploration policies: {', '.join(chooser_names())} (default: {DEFAULT_POLICY})",
     )  # fmt: skip
     parser.add_argument(
-        "--methods", nargs="+", default=list(plan.methods),
-        help=f"merging methods ({', '.join(team_methods())}), '{NO_MERGE}' for merging off "
-        "(default: tomographic)",
+        "--methods", nargs="+", default=list(plan.methods), metavar="METHOD",
+        help=f"merging methods: {methods} ('{NO_MERGE}': merging off, 'oracle': the true "
+        "start poses; "
+        f"default: {' '.join(plan.methods)})",
     )  # fmt: skip
-    parser.add_argument("--seeds", nargs="+", type=int, default=list(plan.seeds))
-    parser.add_argument("--steps", type=int, default=plan.steps, help="most steps per episode")
-    parser.add_argument("--merge-interval", type=int, default=plan.merge_interval)
-    parser.add_argument("--coverage-target", type=float, default=plan.coverage_target)
+    parser.add_argument(
+        "--seeds", nargs="+", type=int, default=list(plan.seeds), metavar="SEED",
+        help=f"episode seeds (default: {' '.join(map(str, plan.seeds))})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--steps", type=int, default=plan.steps,
+        help=f"most steps of 0.1 s per episode (default {plan.steps})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--merge-interval", type=int, default=plan.merge_interval,
+        help=f"steps between merge rounds (default {plan.merge_interval})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--coverage-target", type=float, default=plan.coverage_target,
+        help="an episode ends when the team knows this fraction of the free space "
+        f"(default {plan.coverage_target})",
+    )  # fmt: skip
     parser.add_argument(
         "--world-size", nargs=2, type=float, metavar=("WIDTH", "HEIGHT"),
         help="size in metres of generated floor plans (default 30 20)",
@@ -63,22 +86,46 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--line-of-sight", action="store_true", help="walls block communication"
     )  # fmt: skip
-    parser.add_argument("--out", type=Path, required=True, help="CSV file the rows go to")
-    parser.add_argument("--resume", action="store_true", help="skip episodes already in --out")
-    parser.add_argument("--executor", choices=EXECUTORS, default="process")
-    parser.add_argument("--workers", type=int, help="local processes or CPUs (default: all)")
-    parser.add_argument("--ray-address", help="address of a running Ray cluster, e.g. auto")
-    parser.add_argument("--record-dir", type=Path, help="write one .rrd per episode here")
+    parser.add_argument(
+        "--out", type=Path, required=True,
+        help="CSV file the rows go to, one per finished episode; its folder must exist",
+    )  # fmt: skip
+    parser.add_argument(
+        "--resume", action="store_true",
+        help="keep the rows already in --out and run only the missing episodes",
+    )  # fmt: skip
+    parser.add_argument(
+        "--executor", choices=EXECUTORS, default="process",
+        help="a local process pool, or Ray (default process)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--workers", type=int,
+        help="local processes, or CPUs of a local Ray (default: all cores)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--ray-address", help="address of a running Ray cluster, e.g. auto (default: start one)"
+    )
+    parser.add_argument(
+        "--record-dir", type=Path, metavar="DIR",
+        help="write one .rrd per episode into this folder (created if its parent exists)",
+    )  # fmt: skip
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the sweep; returns the exit status."""
+def build_plan(args: argparse.Namespace) -> SweepPlan:
+    """The sweep the command line asks for; :class:`UsageError` when it cannot be."""
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.ray_address is not None and args.executor != "ray":
         raise UsageError("--ray-address needs --executor ray")
+    too_many = [n for n in args.robots if not 1 <= n <= MAX_ROBOTS]
+    if too_many:
+        raise UsageError(
+            f"--robots must be from 1 to {MAX_ROBOTS}, got {too_many[0]} (a merge round "
+            f"estimates every pair of maps: {MAX_ROBOTS * (MAX_ROBOTS - 1) // 2} pairs at "
+            f"{MAX_ROBOTS} robots)"
+        )
     try:
-        plan = SweepPlan(
+        return SweepPlan(
             worlds=tuple(args.worlds),
             robots=tuple(args.robots),
             policies=tuple(args.policies),
@@ -92,27 +139,63 @@ def run(args: argparse.Namespace) -> int:
             line_of_sight=args.line_of_sight,
             record_dir=args.record_dir,
         )
+    except ValueError as exc:
+        raise UsageError(one_line(exc)) from exc
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sweep; returns the exit status."""
+    plan = build_plan(args)
+    try:
         episodes = plan.episodes()
     except ValueError as exc:
         raise UsageError(one_line(exc)) from exc
-    bar = tqdm(total=len(episodes), unit="episode", file=sys.stderr, disable=None)
+    check_writable(args.out, option="--out")
+    if args.record_dir is not None and not args.record_dir.absolute().parent.is_dir():
+        raise CommandError(
+            f"cannot write into {args.record_dir}: folder {args.record_dir.absolute().parent} "
+            "does not exist; create it or give --record-dir another path"
+        )
+    progress = Progress(len(episodes), "episode", label=NAME)
+    running: dict[str, tuple[int, float]] = {}
+
+    def detail() -> str:
+        if not running:
+            return ""
+        shown = "; ".join(f"{k} step {s} coverage {c:.2f}" for k, (s, c) in running.items())
+        return f"running {shown}"
 
     def start(planned: int, skipped: int) -> None:
-        bar.update(skipped)
+        progress.update(skipped, detail())
 
-    def progress(row: dict[str, Any]) -> None:
-        bar.update(1)
-        bar.set_postfix_str(f"{row['key']} coverage {float(row['coverage']):.2f}")
+    def step(key: str, at: int, coverage: float) -> None:
+        running[key] = (at, coverage)
+        progress.update(progress.done, detail())
+
+    def finished(row: dict[str, Any]) -> None:
+        running.pop(row["key"], None)
+        progress.update(progress.done + 1, detail())
 
     try:
         outcome = run_sweep(
             plan, args.out, executor=args.executor, workers=args.workers, resume=args.resume,
-            ray_address=args.ray_address, progress=progress, on_start=start,
+            ray_address=args.ray_address, progress=finished, on_start=start, on_step=step,
         )  # fmt: skip
-    except (ValueError, ImportError, FileNotFoundError, OSError) as exc:
+    except KeyboardInterrupt as exc:
+        progress.close()
+        try:
+            rows = len(ResultsFile(args.out).rows())
+        except (OSError, ValueError):
+            rows = 0
+        raise Stopped.of(
+            exc,
+            f"{rows} of {len(episodes)} episodes are in {args.out}; run the same command "
+            "with --resume to run the rest",
+        ) from None
+    except (ValueError, ImportError, OSError) as exc:
+        progress.close()
         raise CommandError(one_line(exc)) from exc
-    finally:
-        bar.close()
+    progress.close(f"{outcome.ran} run, {outcome.skipped} already done")
     print(
         f"{outcome.ran} episodes run, {outcome.skipped} already done, "
         f"{outcome.planned} planned; rows in {outcome.results}"

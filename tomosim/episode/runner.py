@@ -81,15 +81,13 @@ def run_episode(
     if recorder is None and config.record is not None:
         from tomosim.recording import Recorder  # rerun is needed only to record
 
-        owned = recorder = Recorder.to_file(
-            config.record, robots=session.count, bounds=world.bounds
-        )
+        owned = recorder = Recorder.to_file(config.record)
     try:
         if recorder is not None:
             recorder.log_start(session, settings)
         tracker, merges, reason = _explore(session, config, recorder, progress)
         if recorder is not None:
-            recorder.log_end(session)
+            recorder.log_end(session, reason)
     finally:
         if owned is not None:
             owned.close()

@@ -3,23 +3,38 @@
 ::
 
     run/config                         static: the run's settings (JSON text)
-    world/truth                        static: ground-truth grid (GridMap)
-    world/walls                        static: wall segments
-    world/robots/r0                    true pose (Transform3D), every step
+    run/status                         static, rewritten: "running", then how the run
+                                       ended ("finished at step 867: ...", "interrupted
+                                       at step 340: ..."); a recording that still says
+                                       "running" was cut off (process killed)
+    world                              static: the world frame, mirrored in y for rerun's
+                                       2-D views (they draw y down; the world's y is up)
+    world/truth                        static: the ground-truth grid (SegmentationImage
+                                       of ROS cell values, placed by its Transform3D)
+    world/walls                        static: the wall segments
+    world/robots/r0                    the true pose (Transform3D), every step
     world/robots/r0/body, .../heading  static: the robot's disc and heading
     world/robots/r0/scan               lidar returns in the robot's frame, every step
-    world/trails/r0                    true path so far
-    maps/r0                            robot 0's own grid in its map frame (GridMap);
-                                       static Transform3D: its true start pose
-    maps/merged                        the merged map, in its reference robot's frame;
-                                       Transform3D: that robot's true start pose
-    merge/r0-r1/<quantity>             per pair and merge round (PAIR_QUANTITIES)
-    merge/agreement, merge/accepted    per merge round
+    world/trails/r0                    the true path so far
+    world/merged                       Transform3D: the true start pose of the merged
+                                       map's reference robot, every merge round
+    world/merged/map                   the merged map in that robot's frame
+    maps/r0                            static: robot 0's map frame, mirrored as ``world``
+    maps/r0/grid                       robot 0's own grid in its map frame
+    merge/<quantity>/r0-r1             per pair and merge round (PAIR_QUANTITIES)
+    merge/agreement                    per merge round: the merged map against the truth
+    merge/accepted_pairs               per merge round: estimates the merger accepted
     merge/log                          one line per merge round
     team/coverage                      every step
     team/robot_coverage/r0             robot 0's own grid's coverage, every step
     team/path_length/r0, .../total     metres travelled by robot 0 and the team, every step
     team/overlap_rate                  sum of the robots' coverages over the team's, less one
+    team/...                           any other scalar series of the team's exploration
+                                       (TEAM: the viewer's "Team" chart shows them all)
+
+Quantities come first and pairs last in ``merge/``, so that one entity filter
+(``merge/rotation_error_deg/**``) selects a quantity of every pair: rerun's
+filters know a trailing ``/**`` but no ``*`` inside a path.
 
 Time is the ``step`` sequence timeline (one tick per simulation step) and the
 ``sim_time`` duration timeline (simulated seconds).
@@ -37,12 +52,18 @@ SIM_TIME_TIMELINE = "sim_time"
 """Duration timeline: simulated seconds."""
 
 CONFIG = "run/config"
+STATUS = "run/status"
+WORLD = "world"
 TRUTH = "world/truth"
 WALLS = "world/walls"
-MERGED = "maps/merged"
+MERGED_FRAME = "world/merged"
+MERGED = "world/merged/map"
+MAPS = "maps"
+MERGE = "merge"
 AGREEMENT = "merge/agreement"
-ACCEPTED = "merge/accepted"
+ACCEPTED_PAIRS = "merge/accepted_pairs"
 MERGE_LOG = "merge/log"
+TEAM = "team"
 COVERAGE = "team/coverage"
 OVERLAP_RATE = "team/overlap_rate"
 PATH_LENGTH_TOTAL = "team/path_length/total"
@@ -59,6 +80,11 @@ PAIR_QUANTITIES = (
 ERROR_QUANTITIES = ("rotation_error_deg", "translation_error_m")
 """The quantities logged only for accepted estimates."""
 
+STATUS_RUNNING = "running"
+"""First word of ``run/status`` while the run goes on."""
+STATUS_FINISHED = "finished"
+"""First word of ``run/status`` after a run that ended by itself."""
+
 ROBOT_COLOURS = (
     (31, 119, 180),
     (255, 127, 14),
@@ -70,6 +96,28 @@ ROBOT_COLOURS = (
     (23, 190, 207),
 )
 """RGB colour of robot ``k`` is ``ROBOT_COLOURS[k % len(ROBOT_COLOURS)]``."""
+
+
+PAIR_COLOURS = (
+    (27, 158, 119),
+    (217, 95, 2),
+    (117, 112, 179),
+    (231, 41, 138),
+    (102, 166, 30),
+    (230, 171, 2),
+    (166, 118, 29),
+    (102, 102, 102),
+)
+"""RGB of a pair's series in the charts, the same in every chart: the pairs in the
+order r0-r1, r0-r2, r1-r2, r0-r3, ... take the colours in turn (any team size)."""
+
+
+def pair_colour(first: int, second: int) -> tuple[int, int, int]:
+    """The RGB colour of the series of the pair of robots ``first < second``."""
+    if not 0 <= first < second:
+        raise ValueError(f"a pair needs robots 0 <= first < second, got ({first}, {second})")
+    index = second * (second - 1) // 2 + first
+    return PAIR_COLOURS[index % len(PAIR_COLOURS)]
 
 
 def robot_colour(robot: int) -> tuple[int, int, int]:
@@ -87,9 +135,21 @@ def trail_path(robot: int) -> str:
     return f"world/trails/{robot_name(robot)}"
 
 
+def map_frame_path(robot: int) -> str:
+    """``maps/r0``: the robot's map frame (mirrored for the 2-D views)."""
+    return f"{MAPS}/{robot_name(robot)}"
+
+
 def map_path(robot: int) -> str:
-    """``maps/r0``: the robot's own grid."""
-    return f"maps/{robot_name(robot)}"
+    """``maps/r0/grid``: the robot's own grid."""
+    return f"{map_frame_path(robot)}/grid"
+
+
+def quantity_path(quantity: str) -> str:
+    """``merge/rotation_error_deg``: the subtree of one quantity, a series per pair below it."""
+    if quantity not in PAIR_QUANTITIES:
+        raise ValueError(f"unknown pair quantity {quantity!r}; choose one of {PAIR_QUANTITIES}")
+    return f"{MERGE}/{quantity}"
 
 
 def robot_coverage_path(robot: int) -> str:
@@ -103,7 +163,5 @@ def path_length_path(robot: int) -> str:
 
 
 def pair_path(pair: str, quantity: str) -> str:
-    """``merge/r0-r1/rotation_error_deg``: one quantity of one pair."""
-    if quantity not in PAIR_QUANTITIES:
-        raise ValueError(f"unknown pair quantity {quantity!r}; choose one of {PAIR_QUANTITIES}")
-    return f"merge/{pair}/{quantity}"
+    """``merge/rotation_error_deg/r0-r1``: one quantity of one pair."""
+    return f"{quantity_path(quantity)}/{pair}"

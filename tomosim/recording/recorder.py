@@ -4,8 +4,9 @@ The algorithms return data; the :class:`Recorder` takes an explicit
 ``rerun.RecordingStream`` and logs that data under the entity tree of
 :mod:`tomosim.recording.paths`:
 
-* once, static: the run's settings, the ground truth, the walls, the robots'
-  bodies, and where each robot's map frame lies in the world;
+* once, at the start: the default blueprint (:mod:`tomosim.recording.blueprint`),
+  the run's settings, ``run/status`` "running", the ground truth, the walls,
+  the robots' bodies and the colours of the maps (:mod:`tomosim.recording.colours`);
 * every step: the true poses, the scans, the team coverage, and the tracked
   figures of :mod:`tomosim.episode.tracking` (each robot's coverage and path
   length, the team's path length and overlap rate; :meth:`Recorder.log_figures`);
@@ -13,20 +14,28 @@ The algorithms return data; the :class:`Recorder` takes an explicit
   (and at the last step);
 * every merge round: per pair the confidence, acceptance, confirmation and
   matching index, the errors of accepted estimates, the merged map and its
-  agreement with the truth.
+  agreement with the truth;
+* at the end, ``run/status``: how the run ended.
 
-Grids are logged as ``GridMap`` images in the ROS coding (-1 shown as 255,
-rviz's map colours) with row 0 at the top of the image, as images are, so the
-grid's row 0 (its lowest ``y``) is flipped to the bottom. Robot and merged
-maps are cut to the box of their known cells first (the rest is unknown
-padding).
+Grids are logged as ``SegmentationImage`` of their ROS cell values with a
+``Transform3D`` that scales image pixels to cells of ``resolution`` metres
+and places the grid's origin, so image row 0 is the grid's row 0 (its lowest
+``y``). Robot and merged maps are cut to the box of their known cells first
+(the rest is unknown padding). Everything is drawn in 2-D: the ``world`` and
+``maps/rK`` frames mirror ``y`` once, because rerun's 2-D views draw ``y``
+down.
+
+Writing is checked every :data:`FLUSH_INTERVAL_S` seconds: a recording that
+cannot be written (a full disk, a file removed) raises :class:`RecordingError`
+during the run, not after it.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import uuid
+import sys
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
@@ -39,22 +48,30 @@ from numpy.typing import NDArray
 from merging.grid import OccupancyGrid
 from tomosim.episode.tracking import StepFigures
 from tomosim.recording.blueprint import default_blueprint
+from tomosim.recording.colours import map_classes, merged_classes
 from tomosim.recording.paths import (
-    ACCEPTED,
+    ACCEPTED_PAIRS,
     AGREEMENT,
-    APPLICATION_ID,
     CONFIG,
     COVERAGE,
     ERROR_QUANTITIES,
+    MAPS,
     MERGE_LOG,
     MERGED,
+    MERGED_FRAME,
     OVERLAP_RATE,
     PATH_LENGTH_TOTAL,
     SIM_TIME_TIMELINE,
+    STATUS,
+    STATUS_FINISHED,
+    STATUS_RUNNING,
     STEP_TIMELINE,
     TRUTH,
     WALLS,
+    WORLD,
+    map_frame_path,
     map_path,
+    pair_colour,
     pair_path,
     path_length_path,
     robot_colour,
@@ -62,6 +79,8 @@ from tomosim.recording.paths import (
     robot_path,
     trail_path,
 )
+from tomosim.recording.sinks import LiveViewer, RecordingError, Sinks, unwritable
+from tomosim.team.merger import robot_name
 from tomosim.team.quality import RoundQuality
 from tomosim.team.session import TeamSession
 from tomosim.team.sharing import known_box
@@ -69,14 +88,39 @@ from tomosim.team.sharing import known_box
 MAP_INTERVAL = 10
 """Least number of steps between two logs of one robot's map (a second of
 simulated time): maps change nearly every step, images are large."""
-MERGED_OPACITY = 0.7
-"""Opacity of the merged map over the truth in the world view."""
-DRAW_ORDER = {"truth": 0.0, "map": 1.0, "merged": 2.0}
-"""Layering of the grid maps that overlap in the world view (higher on top)."""
+FLUSH_INTERVAL_S = 2.0
+"""Wall-clock seconds between two checks that the recording is being written;
+also the most a killed run loses."""
+FLUSH_TIMEOUT_S = 10.0
+"""Longest wait, in seconds, for logged data to reach the file and viewers."""
+DRAW_ORDER = {
+    "truth": 0.0,
+    "walls": 1.0,
+    "map": 1.0,
+    "merged": 2.0,
+    "trail": 3.0,
+    "scan": 4.0,
+    "body": 5.0,
+    "heading": 6.0,
+}
+"""Layering in the 2-D views (higher on top)."""
 WALL_COLOUR = (60, 60, 60)
 """RGB of the wall segments."""
-SCAN_RADIUS = 0.03
-"""Metres: radius of a drawn lidar return."""
+WALL_WIDTH = rr.Radius.ui_points(0.5)
+"""Wall segments, a thin line at any zoom (UI points)."""
+TRAIL_WIDTH = rr.Radius.ui_points(1.0)
+"""A robot's path (UI points)."""
+SCAN_RADIUS = rr.Radius.ui_points(1.5)
+"""A drawn lidar return (UI points)."""
+BODY_RADIUS = rr.Radius.ui_points(5.0)
+"""A robot's disc, drawn the same size at any zoom (UI points): a robot is some
+0.2 m, a handful of pixels when the whole floor is in view."""
+AGREEMENT_COLOUR = (40, 40, 40)
+"""RGB of the merged map's agreement series, apart from the pairs' colours."""
+HEADING_RADII = 3.0
+"""Length of the heading arrow in robot radii."""
+MIRROR_Y = rr.Transform3D(scale=[1.0, -1.0, 1.0])
+"""The mirror of the ``world`` and ``maps/rK`` frames (module docstring)."""
 
 
 def crop_to_known(grid: OccupancyGrid) -> OccupancyGrid:
@@ -92,21 +136,20 @@ def crop_to_known(grid: OccupancyGrid) -> OccupancyGrid:
     return OccupancyGrid(grid.data[rows, cols], resolution=grid.resolution, origin=origin)
 
 
-def grid_map(grid: OccupancyGrid, *, draw_order: float, opacity: float = 1.0) -> rr.GridMap:
-    """``grid`` as a rerun ``GridMap`` in its own frame (module docstring)."""
-    rows, cols = grid.shape
+def grid_placement(grid: OccupancyGrid) -> rr.Transform3D:
+    """Image pixels of ``grid`` to its frame: scaled by the resolution, placed at its origin."""
     ox, oy, yaw = grid.origin
-    return rr.GridMap(
-        data=np.ascontiguousarray(grid.data[::-1]).view(np.uint8).tobytes(),
-        format=rr.components.ImageFormat(
-            width=cols, height=rows, color_model="L", channel_datatype="U8"
-        ),
-        cell_size=grid.resolution,
+    return rr.Transform3D(
         translation=[ox, oy, 0.0],
         rotation_axis_angle=rr.RotationAxisAngle(axis=[0.0, 0.0, 1.0], radians=yaw),
-        colormap=rr.components.Colormap.RvizMap,
-        draw_order=draw_order,
-        opacity=opacity,
+        scale=[grid.resolution, grid.resolution, 1.0],
+    )
+
+
+def grid_image(grid: OccupancyGrid, *, draw_order: float) -> rr.SegmentationImage:
+    """``grid``'s ROS cell values as class ids (-1 as 255), row 0 first (module docstring)."""
+    return rr.SegmentationImage(
+        np.ascontiguousarray(grid.data).view(np.uint8), opacity=1.0, draw_order=draw_order
     )
 
 
@@ -128,46 +171,83 @@ class Recorder:
         Where to log; the recorder never touches the global recording.
     map_interval : int
         Least number of steps between two logs of one robot's map.
+    path : Path, optional
+        The file the stream writes to, for messages.
     """
 
-    __slots__ = ("_closed", "_last_maps", "_logged_at", "_trails", "map_interval", "stream")
+    __slots__ = (
+        "_closed",
+        "_flushed_at",
+        "_last_maps",
+        "_logged_at",
+        "_sinks",
+        "_status",
+        "_step",
+        "_styled",
+        "_trails",
+        "map_interval",
+        "path",
+        "stream",
+        "viewer_error",
+        "watch",
+    )
 
-    def __init__(self, stream: rr.RecordingStream, *, map_interval: int = MAP_INTERVAL) -> None:
+    def __init__(
+        self,
+        stream: rr.RecordingStream,
+        *,
+        map_interval: int = MAP_INTERVAL,
+        path: Path | None = None,
+    ) -> None:
         if not isinstance(stream, rr.RecordingStream):
             raise TypeError(f"stream must be a rerun.RecordingStream, got {type(stream).__name__}")
         if map_interval < 1:
             raise ValueError(f"map_interval must be at least 1 step, got {map_interval}")
         self.stream = stream
         self.map_interval = int(map_interval)
+        self.path = path
+        self.viewer_error: str | None = None
+        self.watch: str | None = None
         self._last_maps: dict[int, OccupancyGrid] = {}
         self._logged_at: dict[int, int] = {}
-        self._trails: dict[int, list[tuple[float, float, float]]] = {}
+        self._trails: dict[int, list[tuple[float, float]]] = {}
         self._closed = False
+        self._status: str | None = None
+        self._styled: set[str] = set()
+        self._sinks: Sinks | None = None
+        self._step = 0
+        self._flushed_at = time.monotonic()
 
     @classmethod
-    def to_file(
+    def to_file(cls, path: str | Path, *, map_interval: int = MAP_INTERVAL) -> Recorder:
+        """A recorder writing a new ``.rrd`` file (its folder must exist).
+
+        Raises
+        ------
+        RecordingError
+            If the file cannot be created.
+        """
+        return cls.open(record=Path(path), map_interval=map_interval)
+
+    @classmethod
+    def open(
         cls,
-        path: str | Path,
         *,
-        robots: int,
-        bounds: tuple[float, float, float, float],
+        record: Path | None = None,
+        live: LiveViewer | None = None,
         map_interval: int = MAP_INTERVAL,
     ) -> Recorder:
-        """A recorder writing a new ``.rrd`` file with the default blueprint inside.
+        """A recorder writing ``record`` and showing on ``live`` (:class:`Sinks`).
 
-        Parameters
-        ----------
-        path : str or Path
-            The file; its folder must exist.
-        robots : int
-            Number of robots (for the blueprint's tabs).
-        bounds : (xmin, ymin, xmax, ymax)
-            The world's extent in metres (for the blueprint's initial eye).
+        The file is created, or emptied, only when :meth:`log_start` logs the
+        run's first data, so a run that fails before it starts leaves an
+        existing file of that name as it was.
         """
-        stream = rr.RecordingStream(APPLICATION_ID, recording_id=uuid.uuid4())
-        stream.set_log_time_enabled(False)
-        stream.save(Path(path), default_blueprint=default_blueprint(robots, bounds))
-        return cls(stream, map_interval=map_interval)
+        sinks = Sinks(record, live)
+        recorder = cls(sinks.stream, map_interval=map_interval, path=record)
+        recorder.watch = sinks.watch
+        recorder._sinks = sinks
+        return recorder
 
     def __enter__(self) -> Recorder:
         return self
@@ -180,37 +260,122 @@ class Recorder:
     ) -> None:
         self.close()
 
+    @property
+    def status(self) -> str | None:
+        """The last ``run/status`` logged (None before :meth:`log_start`)."""
+        return self._status
+
+    def _flush(self, *, final: bool = False) -> None:
+        """Push logged data out; :class:`RecordingError` if the file cannot be written.
+
+        A viewer that went away is not an error: :attr:`viewer_error` says so
+        and the file goes on being written.
+        """
+        try:
+            self.stream.flush(timeout_sec=FLUSH_TIMEOUT_S)
+        except RuntimeError as exc:  # rerun reports every sink's failure this way
+            message = " ".join(str(exc).split())
+            if "grpc" in message.lower() and "file" not in message.lower():
+                self.viewer_error = message
+                return
+            if not final:
+                self._closed = True
+                self.stream.disconnect()
+            if self.path is None:
+                raise RecordingError(f"cannot show the run live: {message}") from exc
+            raise unwritable(self.path, message) from exc
+        self._flushed_at = time.monotonic()
+
     def close(self) -> None:
-        """Flush everything logged and finish the file (safe to call twice)."""
+        """Flush everything logged and finish the file (safe to call twice).
+
+        A run that never logged how it ended is marked as stopped at its last step.
+
+        Raises
+        ------
+        RecordingError
+            If what was logged could not be written.
+        """
         if self._closed:
             return
+        # An exception propagating through the caller's ``finally`` (a failed or
+        # interrupted run) is what the caller must see, not a failed flush after it.
+        propagating = sys.exc_info()[1]
+        if self._status is not None and self._status.startswith(STATUS_RUNNING):
+            self.log_status(f"stopped at step {self._step} before its end")
         self._closed = True
-        self.stream.flush()
-        self.stream.disconnect()
+        if self._sinks is not None and self._status is None:  # never started: nothing to write
+            self.stream.disconnect()
+            return
+        try:
+            self._flush(final=True)
+        except RecordingError:
+            if propagating is None:
+                raise
+        finally:
+            self.stream.disconnect()
+
+    def log_status(self, status: str) -> None:
+        """Set ``run/status`` (first word: running, finished, interrupted, stopped, ...)."""
+        self._status = status
+        self.stream.log(STATUS, rr.TextDocument(status), static=True)
 
     def _set_time(self, session: TeamSession) -> None:
+        self._step = session.steps
         self.stream.set_time(STEP_TIMELINE, sequence=session.steps)
         self.stream.set_time(SIM_TIME_TIMELINE, duration=session.simulation.time)
 
     def log_start(self, session: TeamSession, settings: Mapping[str, Any]) -> None:
-        """The static part (settings, world, robot bodies, map frames) and step 0."""
+        """The blueprint, the static part (settings, world, robot bodies, colours) and step 0.
+
+        Raises
+        ------
+        RecordingError
+            If the file cannot be created or a viewer's port is taken.
+        """
+        if self._sinks is not None:
+            self._sinks.attach()
+        world = session.world
+        merging = bool(session.config.merge)
+        self.stream.send_blueprint(
+            default_blueprint(session.count, world.bounds, merging=merging),
+            make_active=True,
+            make_default=True,
+        )
         log = self.stream.log
         log(CONFIG, rr.TextDocument(json.dumps(dict(settings), indent=2)), static=True)
-        log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-        world = session.world
-        log(TRUTH, grid_map(world.truth, draw_order=DRAW_ORDER["truth"]), static=True)
-        segments = np.concatenate([world.walls, np.zeros((*world.walls.shape[:2], 1))], axis=2)
-        log(WALLS, rr.LineStrips3D(segments, colors=[WALL_COLOUR]), static=True)
+        self.log_status(STATUS_RUNNING)
+        log(WORLD, MIRROR_Y, map_classes(), static=True)
+        log(MAPS, map_classes(), static=True)
+        log(MERGED_FRAME, merged_classes(), static=True)
+        log(TRUTH, grid_placement(world.truth), static=True)
+        log(TRUTH, grid_image(world.truth, draw_order=DRAW_ORDER["truth"]), static=True)
+        walls = rr.LineStrips2D(
+            list(world.walls),
+            radii=WALL_WIDTH,
+            colors=[WALL_COLOUR],
+            draw_order=DRAW_ORDER["walls"],
+        )
+        log(WALLS, walls, static=True)
         radius = session.config.simulation.physics.robot_radius
-        for k, start in enumerate(session.simulation.start_poses):
+        for k in range(session.count):
             colour = robot_colour(k)
-            body = rr.Points3D([[0.0, 0.0, 0.0]], radii=radius, colors=[colour])
+            body = rr.Points2D(
+                [[0.0, 0.0]],
+                radii=BODY_RADIUS,
+                colors=[colour],
+                labels=[robot_name(k)],
+                draw_order=DRAW_ORDER["body"],
+            )
             log(f"{robot_path(k)}/body", body, static=True)
-            heading = rr.Arrows3D(
-                origins=[[0.0, 0.0, 0.0]], vectors=[[2 * radius, 0.0, 0.0]], colors=[colour]
+            heading = rr.Arrows2D(
+                origins=[[0.0, 0.0]],
+                vectors=[[HEADING_RADII * radius, 0.0]],
+                colors=[(0, 0, 0)],
+                draw_order=DRAW_ORDER["heading"],
             )
             log(f"{robot_path(k)}/heading", heading, static=True)
-            log(map_path(k), pose_transform(start), static=True)
+            log(map_frame_path(k), MIRROR_Y, static=True)
         self.log_step(session, None)
 
     def log_step(self, session: TeamSession, merge: RoundQuality | None) -> None:
@@ -221,16 +386,22 @@ class Recorder:
         for k, (pose, scan) in enumerate(zip(poses, session.simulation.scans, strict=True)):
             log(robot_path(k), pose_transform(pose))
             hits = scan.points((0.0, 0.0, 0.0))
-            points = np.column_stack([hits, np.zeros(len(hits))])
             log(
                 f"{robot_path(k)}/scan",
-                rr.Points3D(points, radii=SCAN_RADIUS, colors=[robot_colour(k)]),
+                rr.Points2D(
+                    hits,
+                    radii=SCAN_RADIUS,
+                    colors=[robot_colour(k)],
+                    draw_order=DRAW_ORDER["scan"],
+                ),
             )
-            self._trails.setdefault(k, []).append((float(pose[0]), float(pose[1]), 0.0))
+            self._trails.setdefault(k, []).append((float(pose[0]), float(pose[1])))
         log(COVERAGE, rr.Scalars(session.coverage.fraction))
         self._log_maps(session, force=False)
         if merge is not None:
             self.log_merge(session, merge)
+        if time.monotonic() - self._flushed_at >= FLUSH_INTERVAL_S:
+            self._flush()
 
     def log_figures(self, session: TeamSession, figures: StepFigures) -> None:
         """The tracked figures of the current step, as scalars under ``team/``."""
@@ -258,19 +429,27 @@ class Recorder:
                 and np.array_equal(previous.data, grid.data)
             ):
                 continue
-            shown = grid_map(crop_to_known(grid), draw_order=DRAW_ORDER["map"])
-            self.stream.log(map_path(k), shown)
+            shown = crop_to_known(grid)
+            self.stream.log(
+                map_path(k),
+                grid_placement(shown),
+                grid_image(shown, draw_order=DRAW_ORDER["map"]),
+            )
             self._last_maps[k] = grid
             self._logged_at[k] = step
-            self.stream.log(
-                trail_path(k),
-                rr.LineStrips3D([self._trails.get(k, [])], colors=[robot_colour(k)]),
+            trail = rr.LineStrips2D(
+                [self._trails.get(k, [])],
+                radii=TRAIL_WIDTH,
+                colors=[robot_colour(k)],
+                draw_order=DRAW_ORDER["trail"],
             )
+            self.stream.log(trail_path(k), trail)
 
     def log_merge(self, session: TeamSession, merge: RoundQuality) -> None:
         """One merge round's quality figures and merged map, at the current time."""
         log = self.stream.log
         for pair in merge.pairs:
+            colour = pair_colour(pair.first, pair.second)
             values = {
                 "confidence": pair.confidence,
                 "accepted": float(pair.accepted),
@@ -282,23 +461,40 @@ class Recorder:
             for quantity, value in values.items():
                 if quantity in ERROR_QUANTITIES and not pair.accepted:
                     continue
-                log(pair_path(pair.name, quantity), rr.Scalars(value))
+                path = pair_path(pair.name, quantity)
+                if path not in self._styled:
+                    self._styled.add(path)
+                    style = rr.SeriesLines(colors=[colour], names=[pair.name])
+                    log(path, style, static=True)
+                log(path, rr.Scalars(value))
+        if AGREEMENT not in self._styled:
+            self._styled.add(AGREEMENT)
+            style = rr.SeriesLines(colors=[AGREEMENT_COLOUR], names=["merged-map agreement"])
+            log(AGREEMENT, style, static=True)
         log(AGREEMENT, rr.Scalars(merge.agreement))
-        log(ACCEPTED, rr.Scalars(float(len(merge.accepted))))
+        log(ACCEPTED_PAIRS, rr.Scalars(float(len(merge.accepted))))
         start = session.simulation.start_poses[merge.merge.reference]
-        log(MERGED, pose_transform(start))
-        merged = grid_map(
-            crop_to_known(merge.merge.merged),
-            draw_order=DRAW_ORDER["merged"],
-            opacity=MERGED_OPACITY,
-        )
-        log(MERGED, merged)
+        log(MERGED_FRAME, pose_transform(start))
+        merged = crop_to_known(merge.merge.merged)
+        log(MERGED, grid_placement(merged), grid_image(merged, draw_order=DRAW_ORDER["merged"]))
         log(MERGE_LOG, rr.TextLog(merge_line(merge), level="INFO"))
 
-    def log_end(self, session: TeamSession) -> None:
-        """The last step's maps, whatever the interval, so the recording ends complete."""
+    def log_end(self, session: TeamSession, reason: str | None = None) -> None:
+        """The last step's maps, whatever the interval, and ``run/status`` "finished".
+
+        Parameters
+        ----------
+        reason : str, optional
+            Why the run ended (recorded in the status).
+        """
         self._set_time(session)
         self._log_maps(session, force=True)
+        ended = f"{STATUS_FINISHED} at step {session.steps}"
+        self.log_status(f"{ended}: {reason}" if reason else ended)
+
+    def log_interrupted(self, why: str) -> None:
+        """``run/status`` "interrupted at step N: why" (the run was stopped from outside)."""
+        self.log_status(f"interrupted at step {self._step}: {why}")
 
 
 def merge_line(merge: RoundQuality) -> str:
@@ -312,3 +508,14 @@ def merge_line(merge: RoundQuality) -> str:
         parts.append(text + ")")
     robots = ", ".join(f"r{k}" for k in merge.merged_robots)
     return f"step {merge.step}: " + "; ".join(parts) + f"; merged map of {robots}"
+
+
+__all__ = [
+    "Recorder",
+    "RecordingError",
+    "crop_to_known",
+    "grid_image",
+    "grid_placement",
+    "merge_line",
+    "pose_transform",
+]

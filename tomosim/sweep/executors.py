@@ -3,18 +3,36 @@
 Both executors ship the same pure function, :func:`~tomosim.sweep.rows.run_one`,
 so the same plan gives the same rows whichever runs it (all but the timing
 columns). Rows are appended in the order episodes finish.
+
+While episodes run, their workers report each episode's step and coverage
+every :data:`REPORT_INTERVAL_S` seconds (through a queue), so a long episode
+shows progress before it ends.
+
+A sweep holds its results file's lock from start to end
+(:meth:`~tomosim.sweep.rows.ResultsFile.locked`): a second sweep on the same
+file refuses. Local workers end with their parent, however it ends: they
+ignore Ctrl-C (the parent stops them), are terminated when the parent stops,
+and end by themselves within :data:`ORPHAN_CHECK_S` seconds of the parent's
+death (SIGKILL included).
 """
 
 from __future__ import annotations
 
+import contextlib
+import math
 import multiprocessing
 import os
+import queue
+import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tomosim.episode import EpisodeConfig
 from tomosim.sweep.plan import Episode, SweepPlan
 from tomosim.sweep.rows import ResultsFile, run_one
 
@@ -22,11 +40,21 @@ EXECUTORS = ("process", "ray")
 """Names accepted by :func:`run_sweep`."""
 RAY_INSTALL = 'pip install "tomosim[ray]"'
 """The command that installs the optional Ray executor."""
+REPORT_INTERVAL_S = 1.0
+"""Seconds between two progress reports of one running episode."""
+POLL_S = 0.25
+"""Seconds the parent waits for a finished episode before passing on progress reports."""
+ORPHAN_CHECK_S = 1.0
+"""Seconds between a worker's checks that its parent is alive."""
+PR_SET_PDEATHSIG = 1
+"""Linux ``prctl`` option: the signal a process gets when its parent dies."""
 
 Progress = Callable[[dict[str, Any]], None]
 """``progress(row)``, called after each finished episode."""
 Start = Callable[[int, int], None]
 """``on_start(planned, skipped)``, called once before the first episode runs."""
+Step = Callable[[str, int, float], None]
+"""``on_step(key, step, team_coverage)``, called as running episodes report."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +77,7 @@ def run_sweep(
     ray_address: str | None = None,
     progress: Progress | None = None,
     on_start: Start | None = None,
+    on_step: Step | None = None,
 ) -> SweepOutcome:
     """Run every episode of ``plan`` not yet in ``out``, appending a row for each.
 
@@ -57,7 +86,7 @@ def run_sweep(
     plan : SweepPlan
         The episodes.
     out : str or Path
-        The CSV results file.
+        The CSV results file; its folder must exist.
     executor : {"process", "ray"}
         A local process pool, or Ray (``ray_address`` names a running cluster;
         None starts a local Ray).
@@ -67,12 +96,18 @@ def run_sweep(
         Keep the rows already in ``out`` and run only the missing episodes;
         without it an existing non-empty ``out`` is an error, so that no
         results are overwritten by accident.
+    progress, on_start, on_step : callable, optional
+        Told of each finished episode's row, of the episodes planned and
+        skipped, and of running episodes' steps.
 
     Raises
     ------
     ValueError
         For an unknown executor, an existing results file without ``resume``,
-        or a results file written by a sweep with other shared settings.
+        a results file written by a sweep with other shared settings, or one
+        another sweep is writing (:class:`~tomosim.sweep.rows.SweepLockedError`).
+    FileNotFoundError
+        If the folder of ``out`` does not exist.
     ImportError
         For ``executor="ray"`` when Ray is not installed (with the command
         that installs it).
@@ -80,25 +115,30 @@ def run_sweep(
     if executor not in EXECUTORS:
         raise ValueError(f"executor must be one of {EXECUTORS}, got {executor!r}")
     results = ResultsFile(out)
-    results.path.parent.mkdir(parents=True, exist_ok=True)
-    if results.path.is_file() and results.path.stat().st_size > 0 and not resume:
-        raise ValueError(f"{results.path} already holds results; pass --resume or choose --out")
-    results.repair()
-    shared = plan.settings()
-    done = _done_keys(results, shared)
-    episodes = plan.episodes()
-    pending = [e for e in episodes if e.key not in done]
-    if plan.record_dir is not None:
-        plan.record_dir.mkdir(parents=True, exist_ok=True)
-    if on_start is not None:
-        on_start(len(episodes), len(episodes) - len(pending))
-    run = _run_on_ray if executor == "ray" else _run_in_processes
-    ran = 0
-    for row in run(pending, shared, workers=workers, ray_address=ray_address):
-        results.append(row)
-        ran += 1
-        if progress is not None:
-            progress(row)
+    if not results.path.absolute().parent.is_dir():
+        raise FileNotFoundError(
+            f"cannot write {results.path}: folder {results.path.absolute().parent} does not exist"
+        )
+    had_rows = results.path.is_file() and results.path.stat().st_size > 0
+    with results.locked():
+        if had_rows and not resume:
+            raise ValueError(f"{results.path} already holds results; pass --resume or choose --out")
+        results.repair()
+        shared = plan.settings()
+        done = _done_keys(results, shared)
+        episodes = plan.episodes()
+        pending = [e for e in episodes if e.key not in done]
+        if plan.record_dir is not None:
+            plan.record_dir.mkdir(exist_ok=True)
+        if on_start is not None:
+            on_start(len(episodes), len(episodes) - len(pending))
+        run = _run_on_ray if executor == "ray" else _run_in_processes
+        ran = 0
+        for row in run(pending, shared, workers=workers, ray_address=ray_address, on_step=on_step):
+            results.append(row)
+            ran += 1
+            if progress is not None:
+                progress(row)
     return SweepOutcome(len(episodes), len(episodes) - len(pending), ran, results.path)
 
 
@@ -116,8 +156,83 @@ def _done_keys(results: ResultsFile, shared: dict[str, Any]) -> set[str]:
     return done
 
 
+class _Reporter:
+    """A running episode's ``progress`` callback: at most one report a second, to a queue."""
+
+    __slots__ = ("key", "last", "sink")
+
+    def __init__(self, key: str, sink: Any) -> None:
+        self.key = key
+        self.sink = sink
+        self.last = -math.inf  # the first report goes at once
+
+    def __call__(self, step: int, coverage: float) -> None:
+        now = time.monotonic()
+        if now - self.last < REPORT_INTERVAL_S:
+            return
+        self.last = now
+        # A full or closed queue costs a report, never the episode.
+        with contextlib.suppress(Exception):
+            self.sink.put_nowait((self.key, int(step), float(coverage)))
+
+
+_REPORTS: Any = None
+"""The worker process's report queue, set by :func:`_start_worker`."""
+
+
+def _die_with_parent(parent: int) -> None:
+    """End this process when ``parent`` dies: at once on Linux, else within a second."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        except (OSError, AttributeError):  # no prctl: the watchdog below does the job
+            pass
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent:
+                os._exit(1)
+            time.sleep(ORPHAN_CHECK_S)
+
+    if os.getppid() != parent:  # the parent died before the watch began
+        os._exit(1)
+    threading.Thread(target=watch, name="orphan-watch", daemon=True).start()
+
+
+def _start_worker(reports: Any, parent: int) -> None:
+    """Set up a pool worker: reports queue, Ctrl-C left to the parent, death with the parent."""
+    global _REPORTS
+    _REPORTS = reports
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
+
+
+def _pool_task(task: tuple[str, EpisodeConfig, dict[str, Any]]) -> dict[str, Any]:
+    key, config, shared = task
+    return run_one(key, config, shared, _Reporter(key, _REPORTS))
+
+
+def _drain(reports: Any, on_step: Step | None) -> None:
+    """Pass every queued progress report to ``on_step``."""
+    while True:
+        try:
+            key, step, coverage = reports.get_nowait()
+        except queue.Empty:
+            return
+        if on_step is not None:
+            on_step(key, step, coverage)
+
+
 def _run_in_processes(
-    episodes: list[Episode], shared: dict[str, Any], *, workers: int | None, ray_address: str | None
+    episodes: list[Episode],
+    shared: dict[str, Any],
+    *,
+    workers: int | None,
+    ray_address: str | None,
+    on_step: Step | None,
 ) -> Iterator[dict[str, Any]]:
     if not episodes:
         return
@@ -125,21 +240,38 @@ def _run_in_processes(
     # Fresh interpreters: a forked copy of a parent holding a recording or a
     # physics space is not something to rely on.
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=count, mp_context=context) as pool:
-        futures: set[Future[dict[str, Any]]] = {
-            pool.submit(run_one, e.key, e.config, shared) for e in episodes
-        }
-        while futures:
-            finished, futures = wait(futures, return_when=FIRST_COMPLETED)
-            for future in finished:
-                yield future.result()
+    reports = context.Queue()
+    pool = context.Pool(count, initializer=_start_worker, initargs=(reports, os.getpid()))
+    try:
+        finished = pool.imap_unordered(_pool_task, [(e.key, e.config, shared) for e in episodes])
+        while True:
+            try:
+                row = finished.next(timeout=POLL_S)
+            except multiprocessing.TimeoutError:
+                _drain(reports, on_step)
+                continue
+            except StopIteration:
+                break
+            _drain(reports, on_step)
+            yield row
+    finally:
+        # Also on Ctrl-C, SIGTERM or an error: running episodes are stopped, not awaited.
+        pool.terminate()
+        pool.join()
+        reports.close()
 
 
 def _run_on_ray(
-    episodes: list[Episode], shared: dict[str, Any], *, workers: int | None, ray_address: str | None
+    episodes: list[Episode],
+    shared: dict[str, Any],
+    *,
+    workers: int | None,
+    ray_address: str | None,
+    on_step: Step | None,
 ) -> Iterator[dict[str, Any]]:
     try:
         import ray
+        from ray.util.queue import Queue as RayQueue
     except ImportError as exc:
         raise ImportError(f"the Ray executor needs Ray: {RAY_INSTALL}") from exc
     if not episodes:
@@ -151,12 +283,28 @@ def _run_on_ray(
             options.update(include_dashboard=False, num_cpus=workers)
         ray.init(**options)
     try:
-        remote = ray.remote(run_one)
-        pending = [remote.remote(e.key, e.config, shared) for e in episodes]
+        reports = RayQueue()
+        remote = ray.remote(_ray_task)
+        pending = [remote.remote(e.key, e.config, shared, reports) for e in episodes]
         while pending:
-            finished, pending = ray.wait(pending, num_returns=1)
+            finished, pending = ray.wait(pending, num_returns=1, timeout=POLL_S)
+            _drain_ray(reports, on_step)
             for ref in finished:
                 yield ray.get(ref)
     finally:
         if started:
             ray.shutdown()
+
+
+def _ray_task(
+    key: str, config: EpisodeConfig, shared: dict[str, Any], reports: Any
+) -> dict[str, Any]:
+    return run_one(key, config, shared, _Reporter(key, reports))
+
+
+def _drain_ray(reports: Any, on_step: Step | None) -> None:
+    """Pass every queued report of a Ray queue to ``on_step``."""
+    size = reports.qsize()
+    if size and on_step is not None:
+        for key, step, coverage in reports.get_nowait_batch(size):
+            on_step(key, step, coverage)

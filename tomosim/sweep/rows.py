@@ -6,8 +6,15 @@ import csv
 import io
 import math
 import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+try:
+    import fcntl
+except ImportError:  # not on POSIX: sweeps run without the results file's lock
+    fcntl = None  # type: ignore[assignment]
 
 import numpy as np
 
@@ -85,9 +92,25 @@ def _stat(function: Any, values: np.ndarray) -> float | str:
     return round(float(function(finite)), 6) if len(finite) else ""
 
 
-def run_one(key: str, config: EpisodeConfig, shared: dict[str, Any]) -> dict[str, Any]:
-    """Run one episode and return its row: the unit of work every executor ships."""
-    return episode_row(key, run_episode(config), shared)
+def run_one(
+    key: str,
+    config: EpisodeConfig,
+    shared: dict[str, Any],
+    progress: Callable[[int, float], None] | None = None,
+) -> dict[str, Any]:
+    """Run one episode and return its row: the unit of work every executor ships.
+
+    ``progress(step, team_coverage)`` is called after every step, if given.
+    """
+    return episode_row(key, run_episode(config, progress=progress), shared)
+
+
+class SweepLockedError(ValueError):
+    """Another sweep is writing the results file."""
+
+
+class ResultsFileError(OSError):
+    """The results file cannot be written; the message names it."""
 
 
 class ResultsFile:
@@ -95,13 +118,48 @@ class ResultsFile:
 
     Every row is flushed and synced to disk as soon as it is written. On
     opening, a last line cut short by a killed process is dropped, so that
-    the file holds only whole rows.
+    the file holds only whole rows. A sweep holds the file's lock
+    (:meth:`locked`) while it runs, so that a second sweep on the same file
+    refuses instead of running every episode again and writing duplicates.
     """
 
     __slots__ = ("path",)
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
+
+    @contextmanager
+    def locked(self) -> Iterator[None]:
+        """Hold an exclusive lock on the file (created empty if missing) while in the block.
+
+        The lock is the operating system's (``flock``): it ends with the
+        process, even one killed with SIGKILL, so no stale lock is left.
+
+        Raises
+        ------
+        SweepLockedError
+            If another process holds it.
+        ResultsFileError
+            If the file cannot be opened for writing.
+        """
+        try:
+            handle = self.path.open("a")
+        except OSError as exc:
+            raise ResultsFileError(
+                f"cannot write {self.path}: {exc.strerror or exc}; choose another --out"
+            ) from exc
+        try:
+            if fcntl is not None:
+                try:
+                    fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    raise SweepLockedError(
+                        f"{self.path} is being written by another sweep (it holds the file's "
+                        "lock); wait for that sweep to end or choose another --out"
+                    ) from None
+            yield
+        finally:
+            handle.close()  # releases the lock
 
     def rows(self) -> list[dict[str, str]]:
         """The whole rows in the file (none when it does not exist)."""
@@ -122,10 +180,9 @@ class ResultsFile:
         """Drop a trailing partial line left by a killed writer; returns rows kept."""
         if not self.path.is_file():
             return 0
-        text = self.path.read_text()
-        if text and not text.endswith("\n"):
-            text = text[: text.rfind("\n") + 1]
-            self.path.write_text(text)
+        text = self.path.read_bytes()
+        if text and not text.endswith(b"\n"):
+            os.truncate(self.path, text.rfind(b"\n") + 1)
         return len(self.rows())
 
     def append(self, row: dict[str, Any]) -> None:

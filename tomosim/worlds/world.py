@@ -38,6 +38,15 @@ while the narrowest real gaps robots map (doorways, 0.6 m and more) are three ti
 wider."""
 
 
+class NoRoomError(ValueError):
+    """Fewer poses than asked for fit in a world at the required separation."""
+
+    def __init__(self, message: str, *, placed: int, requested: int) -> None:
+        super().__init__(message)
+        self.placed = placed
+        self.requested = requested
+
+
 def as_generator(rng: RngLike) -> np.random.Generator:
     """A ``numpy.random.Generator`` from a Generator, a seed or ``None`` (fresh entropy)."""
     if isinstance(rng, np.random.Generator):
@@ -191,8 +200,8 @@ class World:
         Raises
         ------
         ValueError
-            If the world has no room with that clearance, or the poses cannot
-            be kept ``min_separation`` apart.
+            If the world has no room with that clearance; :class:`NoRoomError`
+            (a ValueError) if the poses cannot be kept ``min_separation`` apart.
         """
         if count < 0:
             raise ValueError(f"count must be non-negative, got {count}")
@@ -220,8 +229,10 @@ class World:
                     poses[chosen, 2] = generator.uniform(-np.pi, np.pi)
                     break
             else:
-                raise ValueError(
+                raise NoRoomError(
                     f"could only place {chosen} of {count} poses {min_separation} m "
-                    f"apart in {self.name!r}; lower min_separation or the count"
+                    f"apart in {self.name!r}; lower min_separation or the count",
+                    placed=chosen,
+                    requested=count,
                 )
         return poses

@@ -1,0 +1,464 @@
+"""The settings of the default (``"tomographic"``) merger, in one frozen object.
+
+Every tuning constant of the default method lives here, grouped by the stage
+that uses it, each with its unit and the reason for its value. Pass a changed
+copy to :func:`merging.estimate_transform`::
+
+    from dataclasses import replace
+    from merging.params import TomographicParams
+
+    params = TomographicParams()
+    stricter = replace(params, confidence=replace(params.confidence, accept=0.7))
+    merging.estimate_transform(map1, map2, params=stricter)
+
+The stage objects are used on their own too: the verification
+(:class:`VerifyParams`) and the confidence (:class:`ConfidenceParams`) are
+shared by every method, so that ``accepted`` means the same for all of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+# The dataclasses below are frozen and slotted; their defaults are the values the
+# benchmarks in scripts/ were run with.
+
+
+@dataclass(frozen=True, slots=True)
+class RotationParams:
+    """Rotation hypotheses from angular spectra (:mod:`merging.angular`).
+
+    Attributes
+    ----------
+    angle_step_deg : float
+        Degrees between samples of the angular spectra: the paper's sinograms
+        use 1°; the peaks are refined to sub-degree afterwards.
+    min_frequency : int
+        Lowest radial frequency used, in FFT bins: below it the spectrum
+        describes the map's overall extent, which differs between partial
+        maps, not its walls.
+    max_frequency_fraction : float
+        Highest radial frequency used, as a fraction of Nyquist: above it the
+        spectrum is rasterisation noise.
+    peak_separation_deg : float
+        Two rotation peaks closer than this (degrees) are one peak.
+    peaks : int
+        Rotation peaks (modulo 180°) kept; with their 180° twins, twice as
+        many hypotheses. In every real-map window pair examined the true
+        rotation was among the three strongest (rectilinear buildings put its
+        90° neighbours next).
+    """
+
+    angle_step_deg: float = 1.0
+    min_frequency: int = 3
+    max_frequency_fraction: float = 0.75
+    peak_separation_deg: float = 4.0
+    peaks: int = 3
+
+
+@dataclass(frozen=True, slots=True)
+class TranslationParams:
+    """Translation hypotheses from the pooled projection correlation (:mod:`merging.correlate`).
+
+    Attributes
+    ----------
+    coarse_cells : int
+        Largest side of the coarse grid, in blocks: bounds the FFT size (and
+        the time) for any map.
+    wall_blur : float
+        Gaussian blur of map 1's walls, in coarse cells: a 1-2° rotation error
+        moves far walls by about one coarse cell.
+    free_penalty : float
+        Weight of map 1's clear free space in the correlation target, relative
+        to a wall: walls laid across open rooms lose.
+    peak_suppression : int
+        Coarse cells around a translation peak within which weaker peaks are
+        dropped: they are the same answer.
+    peaks : int
+        Translations kept per rotation hypothesis.
+    """
+
+    coarse_cells: int = 160
+    wall_blur: float = 0.7
+    free_penalty: float = 0.5
+    peak_suppression: int = 2
+    peaks: int = 3
+
+
+@dataclass(frozen=True, slots=True)
+class VerifyParams:
+    """Carrying each map's walls into the other (:mod:`merging.verify`).
+
+    Attributes
+    ----------
+    max_points : int
+        Occupied cells per map used for verification; more add time, not
+        evidence.
+    max_open_points : int
+        Clear free cells per map used to count shared open space: it is
+        counted, not located, so fewer samples do (about 1 % precision).
+    near_radius : int
+        Cells (chessboard) within which a carried cell counts as landing on a
+        wall: rasterising a rotated wall moves its cells by up to one cell.
+    conflict_clearance : int
+        A free cell is evidence against a wall only this many cells
+        (chessboard) beyond ``near_radius`` from any occupied cell, so
+        slightly offset walls are not punished.
+    conflict_weight : float
+        What a conflicting cell costs relative to what an agreeing one earns.
+    overlap_preference : float
+        Fit (quality) that a tenfold larger wall overlap is worth when
+        ranking hypotheses.
+    space_preference : float
+        Fit (quality) that a tenfold larger shared open space (free cells
+        landing on free cells) is worth when ranking hypotheses. Maps of
+        separate sessions bend against each other and draw walls 2-3 cells
+        thick, so a right placement lays 20-40 % of the walls beside the
+        other map's and fits no better than a wrong one that lays a corner
+        on a corner; but it lays open space on open space, hundreds of times
+        more than the wrong one. Set on the even-numbered E5 session pairs
+        and window pairs of four maps (any value from 1 to 2 ranks every
+        window pair as 0.05 alone did), checked on the odd-numbered ones.
+    screen_stride : int
+        Hypotheses are first screened with every ``screen_stride``-th
+        verification point (about 1000 per map), enough to rank them; the
+        refined ones are verified with all.
+    """
+
+    max_points: int = 4000
+    max_open_points: int = 1500
+    near_radius: int = 1
+    conflict_clearance: int = 2
+    conflict_weight: float = 3.0
+    overlap_preference: float = 0.05
+    space_preference: float = 1.5
+    screen_stride: int = 4
+
+
+@dataclass(frozen=True, slots=True)
+class ConfidenceParams:
+    """The five factors of :func:`merging.verify.confidence` and the acceptance threshold.
+
+    The constants were set on 200 window pairs of four real maps and 144
+    pairs of robots' maps from six simulated episodes, so that no merge more
+    than 2 cells (windows) or 1 m (episodes) off reaches confidence 0.2,
+    while nine in ten right window merges are accepted;
+    ``scripts/calibrate_confidence.py`` reruns that check on other seeds.
+
+    Attributes
+    ----------
+    fit_centre : float
+        Quality at which the fit factor is one half: right merges of real and
+        simulated maps score 0.85-1; wrong ones that fit a repeated room,
+        0.7-0.86.
+    fit_width : float
+        Width of the fit factor's logistic, in quality.
+    fit_tolerance : int
+        For the default method, the fit is the better of the quality above
+        and the quality with walls counted as met within this many cells
+        (chessboard; conflicts only beyond it plus the clearance): two maps
+        of one building rasterised independently (two sources, two sessions)
+        draw a wall up to a few cells apart. On 400 low-overlap window pairs
+        of four maps (seeds 11 and 3) the highest confidence of a wrong
+        placement rose from 0.35 to 0.43 with it, below the threshold; fresh
+        seeds are checked by ``scripts/bench_real_maps.py low-overlap``.
+    tolerant_support : float
+        Agreeing wall cells (both directions) a placement needs before the
+        tolerant fit counts: the wider the tolerance, the likelier walls meet
+        by chance, so it needs more of them (about 100 m of wall at 0.05 m).
+        Small robot maps early in an episode, which have a few hundred, are
+        held to the one-cell fit: with the tolerant fit alone, one such pair
+        of a simulated episode was accepted 24 m off.
+    support_scale : float
+        Agreeing cells (full resolution) at which support reaches 1 - 1/e:
+        about four metres of wall at 0.05 m, below which a match is too small
+        to trust.
+    distinct_margin : float
+        The best transform must explain this much more than the best
+        *different* one, as a fraction of its net agreeing cells, for the
+        distinctiveness factor to pass one half.
+    distinct_width : float
+        Width of the distinctiveness logistic, in that fraction.
+    strength_scale : float
+        Constraint strength (matching cells per cell² of motion along the
+        weakest direction, :func:`merging.refine.constraint_strength`) at which
+        that factor reaches 1 - 1/e: an overlap of one short wall scores about
+        3, a room corner about 30.
+    shared_space_scale : float
+        Clear free cells landing on clear free cells (both directions
+        together) at which the shared-space factor reaches 1 - 1/e: about a
+        square metre seen by both robots at 0.05 m. Maps laid side by side
+        along one wall share none.
+    accept : float
+        Confidence at or above which a result is accepted.
+    """
+
+    fit_centre: float = 0.80
+    fit_width: float = 0.06
+    fit_tolerance: int = 3
+    tolerant_support: float = 2000.0
+    support_scale: float = 80.0
+    distinct_margin: float = 0.25
+    distinct_width: float = 0.05
+    strength_scale: float = 10.0
+    shared_space_scale: float = 1000.0
+    accept: float = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class RobustParams:
+    """The second way to vouch for a merge: much consistent evidence, for maps that bend.
+
+    Maps of one floor from separate sessions or robots bend against each
+    other by up to half a metre and draw walls 2-3 cells thick: even the
+    right placement lays 20-40 % of one map's walls on the other's open
+    space, so the fit factor of :class:`ConfidenceParams` refuses it. Such a
+    placement is vouched for instead when *all* of these hold (each a
+    logistic factor passing one half at its threshold; the confidence is the
+    weakest of them, :func:`merging.robust.robust_confidence`):
+
+    Attributes
+    ----------
+    margin : float
+        Ranking score (:attr:`merging.verify.Verification.score`) by which the
+        placement beats the best *different* one.
+    agreeing : float
+        Wall cells (both directions) that land on walls: a large overlap,
+        about 250 m of wall at 0.05 m. Wrong placements of low-overlap window
+        pairs reach 4400.
+    tolerance : int
+        Cells (chessboard) within which a carried wall cell counts as
+        agreeing for the tolerant fit: the bending seen between sessions.
+    agreement : float
+        Fraction of carried wall cells within ``tolerance`` of a wall.
+    quality : float
+        Tolerant quality, agreement minus ``VerifyParams.conflict_weight``
+        times the fraction landing on clear free space beyond the tolerance.
+    open_share : float
+        Shared clear free space (both directions) over twice the smaller
+        map's clear free space: how much of the maps' open space overlaps.
+    open_consistency : float
+        Of the clear free cells carried onto known cells of the other map,
+        the fraction landing on its clear free space. Right session pairs of
+        E5 score 0.93-0.97 and ``intel`` against ``intel_raster`` (two
+        sources of one building) 0.906; wrong E5 placements that overlap a
+        lot, 0.90-0.91, and wrong low-overlap windows with much agreeing
+        wall, below 0.89.
+    strength : float
+        Constraint strength, the largest over the curvature widths of
+        ``GaussNewtonParams.curvature_sigma`` and ``strength_widths`` (each
+        scaled by its width squared, to matching cells per cell² at one
+        cell): ragged walls make the sharpest curvature noisy, but a corridor
+        that lets the maps slide stays weak at every width.
+    strength_widths : tuple of float
+        The wider curvature widths, in cells.
+    widths : tuple of float
+        Logistic widths of the factors, in the units of each threshold
+        (margin, log10 of agreeing, agreement, quality, open share, open
+        consistency, log10 of strength): narrow, so that each is nearly a
+        pass-fail test.
+
+    These thresholds were set on the even-numbered of the 109 E5 session
+    pairs (sorted by name) and on window pairs of four maps (seeds 2020, 11
+    and 3). The odd-numbered E5 pairs then showed three placements 30-37
+    cells off accepted, which ``quality`` now refuses, so they are no clean
+    hold-out; 300 low-overlap window pairs of seed 2026 and the simulated
+    episodes of ``scripts/calibrate_confidence.py`` are
+    (``scripts/bench_real_maps.py``).
+    """
+
+    margin: float = 0.3
+    agreeing: float = 5000.0
+    tolerance: int = 4
+    agreement: float = 0.5
+    quality: float = -0.4
+    open_share: float = 0.2
+    open_consistency: float = 0.90
+    strength: float = 2.0
+    strength_widths: tuple[float, ...] = (2.0, 4.0)
+    widths: tuple[float, float, float, float, float, float, float] = (
+        0.03,
+        0.02,
+        0.02,
+        0.03,
+        0.02,
+        0.005,
+        0.05,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class GaussNewtonParams:
+    """The Gauss-Newton fit of map 2's walls to map 1's blurred walls (:mod:`merging.refine`).
+
+    Attributes
+    ----------
+    newton_factor : float
+        Step multiplier turning the half-way Gauss-Newton step into Newton's
+        step (see :mod:`merging.refine`).
+    backtracks : int
+        Times a step is halved when it lowers the objective, before giving up.
+    damping : float
+        Levenberg damping, relative to the mean diagonal of the normal matrix.
+    max_step_cells : float
+        A longer step is shortened: the linearisation holds only near walls.
+    max_step_sigmas : float
+        ... unless the field is wide: a step may be this many field widths
+        long, so that the wide fields of a coarse-to-fine search can travel.
+    converged_cells : float
+        A step moving map 2's cells less than this (in translation and, RMS,
+        in rotation) ends a stage: far below the 2-cell accuracy asked for.
+    local_margin : float
+        Cells beyond where map 2 lands that a local field covers: room for
+        the last steps of a refinement that starts within a cell or so.
+    downsample_from_sigma : float
+        Fields at least this wide (cells) are computed on a grid of half
+        resolution: a blur of two cells has nothing finer to keep, and it
+        costs a quarter.
+    curvature_sigma : float
+        Field width (cells) on which the constraint strength measures
+        curvature; ``ConfidenceParams.strength_scale`` was set on this width.
+    curvature_step : float
+        Finite-difference step, in cells of RMS motion of map 2, for that
+        curvature: one cell spans the sharp field's peak.
+    curvature_points : int
+        Map 2 cells used for the curvature.
+    whole_field_share : float
+        Share of map 1's area above which a local field is the whole map's
+        (cached) one: its values are the same where map 2 lands, and every
+        candidate and the curvature reuse it.
+    """
+
+    newton_factor: float = 2.0
+    backtracks: int = 2
+    damping: float = 1e-3
+    max_step_cells: float = 3.0
+    max_step_sigmas: float = 1.0
+    converged_cells: float = 0.05
+    local_margin: float = 4.0
+    downsample_from_sigma: float = 2.0
+    curvature_sigma: float = 1.0
+    curvature_step: float = 1.0
+    curvature_points: int = 1500
+    whole_field_share: float = 0.5
+
+
+@dataclass(frozen=True, slots=True)
+class RefineStage:
+    """One row of the refinement schedule: which candidates, how wide a field, how long.
+
+    At each stage, ``admit`` further candidates (in screening order) join the
+    pool, verified in full; the pool is ranked; its best ``refine`` are
+    refined on fields of widths ``sigmas``, each for at most ``iterations``
+    Gauss-Newton steps, moving at most ``points`` of map 2's cells.
+
+    Attributes
+    ----------
+    admit : int
+        Screened candidates added to the pool before this stage.
+    refine : int
+        Best candidates of the pool refined in this stage.
+    sigmas : tuple of float
+        Field widths in cells, widest first.
+    iterations : int
+        Gauss-Newton steps per width at most.
+    points : int
+        Map 2 cells moved per step at most.
+    local : bool
+        Blur only the part of map 1 where map 2 lands: for candidates already
+        within a cell or so.
+    """
+
+    admit: int
+    refine: int
+    sigmas: tuple[float, ...]
+    iterations: int
+    points: int
+    local: bool
+
+
+DEFAULT_STAGES = (
+    # The widest field catches a coarse hypothesis a few cells off: every candidate
+    # refined there gets into the next field's reach; 600 cells are enough for that.
+    RefineStage(admit=5, refine=5, sigmas=(2.0,), iterations=5, points=600, local=False),
+    # One cell pins the optimum to a fraction of a cell; only the two best need it
+    # to be ranked, the others only the widest field's first steps.
+    RefineStage(admit=0, refine=2, sigmas=(1.0,), iterations=10, points=1500, local=True),
+    # Three more candidates compete unrefined for the final choice and the runner-up;
+    # the winner alone resolves the last tenth of a cell on 0.6 cells (the median
+    # error halves, to about 0.1 cell). Converging the last tenth of a degree over
+    # a map 1000 cells wide takes up to ten steps.
+    RefineStage(admit=3, refine=1, sigmas=(0.6,), iterations=10, points=1500, local=True),
+)
+"""The refinement schedule of the default method, walked by one loop."""
+
+FROM_START = RefineStage(
+    admit=1, refine=1, sigmas=(2.0, 1.0, 0.6), iterations=10, points=1500, local=True
+)
+"""Refining one given transform (a previous round's, say) that is within a few
+cells of the answer: all three field widths in turn, over where map 2 lands."""
+
+
+@dataclass(frozen=True, slots=True)
+class TomographicParams:
+    """Every setting of the default method, grouped by stage.
+
+    Attributes
+    ----------
+    rotation, translation, verify, confidence, robust, gauss_newton
+        The stage settings (see each class).
+    stages : tuple of RefineStage
+        The refinement schedule, walked in order.
+    from_start : RefineStage
+        How :func:`merging.tomographic.refine_from` refines a given transform.
+    correlation_refined : int
+        Of the candidates admitted to the first stage, how many are taken by
+        correlation strength rather than by verification: before refinement
+        a true but slightly misaligned transform can fit worse than one that
+        lays a single outer corner on a corner, which the correlation
+        (weighing how much overlaps) does not favour.
+    widest_per_block : float
+        Widest field of the first refinement stage, in blocks of the coarse
+        correlation grid: its hypotheses are off by up to half a block plus
+        their rotation error (see :func:`merging.tomographic.coarse_to_fine`).
+        Below 6 blocks' worth of map (800 cells) no wider field is added.
+    keep_refined_margin : float
+        Score by which a refined transform may verify worse than its start
+        and still be kept: about one wall cell in fifty landing one cell
+        farther out (verification tolerates a cell of misfit, so it cannot
+        rank finer than that).
+    distinct_cells : float
+        Two transforms moving map 2's cells further apart than this (cells
+        RMS) are different answers; closer ones are one answer found twice.
+    """
+
+    rotation: RotationParams = field(default_factory=RotationParams)
+    translation: TranslationParams = field(default_factory=TranslationParams)
+    verify: VerifyParams = field(default_factory=VerifyParams)
+    confidence: ConfidenceParams = field(default_factory=ConfidenceParams)
+    robust: RobustParams = field(default_factory=RobustParams)
+    gauss_newton: GaussNewtonParams = field(default_factory=GaussNewtonParams)
+    stages: tuple[RefineStage, ...] = DEFAULT_STAGES
+    from_start: RefineStage = FROM_START
+    correlation_refined: int = 2
+    widest_per_block: float = 0.75
+    keep_refined_margin: float = 0.02
+    distinct_cells: float = 4.0
+
+    def __post_init__(self) -> None:
+        if not self.stages:
+            raise ValueError("stages must hold at least one RefineStage")
+        for k, stage in enumerate(self.stages):
+            if not isinstance(stage, RefineStage):
+                raise TypeError(f"stages[{k}] must be a RefineStage, got {type(stage).__name__}")
+            if stage.refine < 1 or stage.iterations < 1 or stage.points < 3 or not stage.sigmas:
+                raise ValueError(
+                    f"stages[{k}] must refine at least one candidate with at least one "
+                    f"field, step and three points, got {stage}"
+                )
+        if self.stages[0].admit < 1:
+            raise ValueError("the first stage must admit at least one candidate")
+
+
+DEFAULT_PARAMS = TomographicParams()
+"""The settings :func:`merging.estimate_transform` uses unless given others."""

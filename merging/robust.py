@@ -1,0 +1,151 @@
+"""Evidence for maps that bend against each other: walls met within a tolerance, open space.
+
+Two maps of one floor made in separate sessions, or by different robots or
+sources, bend against each other by up to half a metre, draw walls 2-3 cells
+thick, and each shows clutter the other does not. The close fit of
+:mod:`merging.verify` (walls within a cell) cannot vouch for them. These
+measures can, and :func:`robust_confidence` combines them into the second
+way the default method vouches for a placement (:mod:`merging.verdict`):
+
+* :func:`tolerant_fit`: walls counted as met within a few cells;
+* :func:`open_consistency`: open space carried onto open space;
+* ``open_share`` (shared open space over the smaller map's): how much
+  overlaps;
+
+besides the amount of agreeing wall, the margin over the best different
+placement and the constraint strength.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from merging.grid import free_mask, occupied_mask
+from merging.params import RobustParams, VerifyParams
+from merging.transforms import apply_transform
+from merging.verify import DEFAULT_VERIFY, PreparedMap, dilate
+
+DEFAULT_ROBUST = RobustParams()
+"""The default thresholds of the robust way to vouch for a merge."""
+
+
+def tolerant_fit(
+    first: PreparedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    tolerance: int,
+    params: VerifyParams = DEFAULT_VERIFY,
+) -> tuple[float, float]:
+    """``(agreement, quality)`` of ``matrix`` with walls counted as met within ``tolerance`` cells.
+
+    As :func:`verify`, but a carried wall cell agrees within ``tolerance``
+    cells (chessboard) of a wall, and conflicts on free space more than
+    ``tolerance + conflict_clearance`` cells from any wall: the fit of maps
+    that bend against each other by up to ``tolerance`` cells.
+    """
+    inverse = np.linalg.inv(matrix)
+    known = near = clear = 0.0
+    for points, target, move, weight in (
+        (second.points, first, matrix, second.point_weight),
+        (first.points, second, inverse, first.point_weight),
+    ):
+        occupied = occupied_mask(target.cells)
+        grown = dilate(occupied, tolerance)
+        far_free = free_mask(target.cells) & ~dilate(
+            occupied, tolerance + params.conflict_clearance
+        )
+        cols, rows, inside = _cells_of(apply_transform(move, points), target.shape)
+        rows, cols = rows[inside], cols[inside]
+        on_known = target.cells[rows, cols] >= 0
+        on_wall = grown[rows, cols]
+        known += float(np.count_nonzero(on_known | on_wall)) * weight
+        near += float(np.count_nonzero(on_wall)) * weight
+        clear += float(np.count_nonzero(far_free[rows, cols])) * weight
+    if known <= 0:
+        return 0.0, 0.0
+    return near / known, (near - params.conflict_weight * clear) / known
+
+
+def open_consistency(first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float64]) -> float:
+    """Of the clear free cells carried onto known cells of the other map, the share on clear free.
+
+    Both directions pooled. Open space laid on open space is what a right
+    placement of two maps of one floor does, however much their walls bend;
+    a wrong one lays open rooms across the other map's walls and clutter.
+    Returns 0 when no clear free cell lands on a known cell.
+    """
+    on_known = on_clear = 0.0
+    for points, target, move, weight in (
+        (second.open_points, first, matrix, second.open_weight),
+        (first.open_points, second, np.linalg.inv(matrix), first.open_weight),
+    ):
+        cols, rows, inside = _cells_of(apply_transform(move, points), target.shape)
+        rows, cols = rows[inside], cols[inside]
+        on_known += float(np.count_nonzero(target.cells[rows, cols] >= 0)) * weight
+        on_clear += float(np.count_nonzero(target.clear_free[rows, cols])) * weight
+    return on_clear / on_known if on_known > 0 else 0.0
+
+
+def open_cells(prepared: PreparedMap) -> float:
+    """How many clear free cells the map has (``open_points`` times the cells each stands for)."""
+    return len(prepared.open_points) * prepared.open_weight
+
+
+def _cells_of(
+    points: NDArray[np.float64], shape: tuple[int, int]
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """Nearest cells ``(cols, rows)`` of ``(x, y)`` points and which lie inside ``shape``."""
+    cols = np.rint(points[:, 0]).astype(np.intp)
+    rows = np.rint(points[:, 1]).astype(np.intp)
+    inside = (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
+    return cols, rows, inside
+
+
+ROBUST_FACTORS = (
+    "margin",
+    "agreeing",
+    "agreement",
+    "quality",
+    "open_share",
+    "open_consistency",
+    "strength",
+)
+"""Names of the factors of :func:`robust_confidence`, in the order of ``RobustParams.widths``."""
+
+
+def robust_confidence(
+    measures: dict[str, float], params: RobustParams = DEFAULT_ROBUST
+) -> tuple[float, dict[str, float]]:
+    """The second way to vouch for a merge (see :class:`~merging.params.RobustParams`).
+
+    Parameters
+    ----------
+    measures : dict
+        ``margin``, ``agreeing``, ``agreement``, ``quality``, ``open_share``,
+        ``open_consistency`` and ``strength`` of the placement, in the units
+        of :class:`~merging.params.RobustParams`.
+
+    Returns
+    -------
+    confidence : float
+        The weakest of the factors: at least one half exactly when every
+        measure reaches its threshold.
+    factors : dict
+        Each factor, in ``[0, 1]``.
+    """
+    thresholds = {
+        "margin": (measures["margin"], params.margin),
+        "agreeing": (np.log10(max(measures["agreeing"], 1.0)), np.log10(params.agreeing)),
+        "agreement": (measures["agreement"], params.agreement),
+        "quality": (measures["quality"], params.quality),
+        "open_share": (measures["open_share"], params.open_share),
+        "open_consistency": (measures["open_consistency"], params.open_consistency),
+        "strength": (np.log10(max(measures["strength"], 1e-3)), np.log10(params.strength)),
+    }
+    factors = {
+        name: float(1.0 / (1.0 + np.exp(-(value - threshold) / width)))
+        for (name, (value, threshold)), width in zip(thresholds.items(), params.widths, strict=True)
+    }
+    return min(factors.values()), factors

@@ -1,0 +1,206 @@
+"""Whether the default method vouches for its best placement, and in words why not.
+
+Two ways to vouch, either is enough (the confidence is the larger):
+
+* the **close fit** of :func:`merging.verify.confidence`: the walls line up
+  within a cell, there is enough of them, no different placement explains
+  nearly as much, they pin the transform down and both maps saw common open
+  space. Window pairs of one map and a robot's growing maps pass this way;
+* the **robust evidence** of :func:`merging.robust.robust_confidence`: for
+  maps of separate sessions, which bend and draw thick walls, a large
+  overlap whose walls meet within a few cells, whose open space lies on open
+  space, and which no different placement comes near.
+
+A refused result says why in words (:func:`refusal_reason`): too little
+overlap, ambiguous between two placements a given distance apart, only one
+wall or corridor to align on, walls that do not meet, or walls without
+shared open space. The numbers behind it are in ``MergeResult.evidence``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from merging.params import TomographicParams
+from merging.refine import SmoothedMap, constraint_strength
+from merging.robust import open_cells, open_consistency, robust_confidence, tolerant_fit
+from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
+from merging.verify import PreparedMap, Verification, confidence_factors, verify
+
+CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
+"""Names of the five factors of :func:`merging.verify.confidence`, in its order."""
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """The confidence in a placement, whether it is accepted, and why not.
+
+    Attributes
+    ----------
+    confidence : float
+        In ``[0, 1]``: the larger of the close-fit and the robust confidence.
+    accepted : bool
+        ``confidence >= ConfidenceParams.accept``.
+    reason : str
+        Empty when accepted; otherwise one sentence saying why not.
+    evidence : dict
+        The measures and factors behind the verdict (see
+        :attr:`merging.result.MergeResult.evidence`).
+    """
+
+    confidence: float
+    accepted: bool
+    reason: str
+    evidence: dict[str, float]
+
+
+def judge(
+    first: PreparedMap,
+    second: PreparedMap,
+    smoothed: SmoothedMap,
+    best: NDArray[np.float64],
+    runner_up: tuple[Verification, NDArray[np.float64]] | None,
+    params: TomographicParams,
+) -> Verdict:
+    """Judge ``best`` (map 2 cells -> map 1 cells) against the best different placement.
+
+    ``runner_up`` is that placement and its verification, or None when the
+    search found no different one (or did not search).
+    """
+    check = verify(first, second, best, params=params.verify)
+    strength = constraint_strength(smoothed, second, best, local=True, params=params.gauss_newton)
+    other = None if runner_up is None else runner_up[0]
+    fit_quality = check.quality
+    factors = confidence_factors(check, other, strength=strength, params=params.confidence)
+    if (
+        np.prod(factors) < params.confidence.accept
+        and check.agreeing >= params.confidence.tolerant_support
+    ):
+        # Two independently drawn maps of one building: walls a few cells apart.
+        _, tolerant_quality = tolerant_fit(
+            first, second, best, tolerance=params.confidence.fit_tolerance, params=params.verify
+        )
+        fit_quality = max(fit_quality, tolerant_quality)
+        factors = confidence_factors(
+            check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
+        )
+    close = float(np.prod(factors))
+    evidence: dict[str, float] = {
+        "agreement": check.agreement,
+        "conflict": check.conflict,
+        "fit_quality": fit_quality,
+        "matching_wall_cells": check.agreeing,
+        "shared_open_cells": check.shared_space,
+        "strength": strength,
+        "close_confidence": close,
+    }
+    evidence.update(
+        {f"close_{name}": value for name, value in zip(CLOSE_FACTORS, factors, strict=True)}
+    )
+    if runner_up is not None:
+        evidence["margin"] = check.score - runner_up[0].score
+        evidence["runner_up_distance_cells"] = _rms_between(best, runner_up[1], second.points)
+        turn = matrix_to_pose(best)[2] - matrix_to_pose(runner_up[1])[2]
+        evidence["runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
+    robust = 0.0
+    robust_factors: dict[str, float] = {}
+    if close < params.confidence.accept:
+        robust, robust_factors = _robust(first, second, smoothed, best, check, evidence, params)
+        evidence["robust_confidence"] = robust
+        evidence.update({f"robust_{name}": value for name, value in robust_factors.items()})
+    value = max(close, robust)
+    accepted = value >= params.confidence.accept
+    reason = "" if accepted else refusal_reason(factors, robust_factors, evidence)
+    return Verdict(value, accepted, reason, evidence)
+
+
+def _robust(
+    first: PreparedMap,
+    second: PreparedMap,
+    smoothed: SmoothedMap,
+    best: NDArray[np.float64],
+    check: Verification,
+    evidence: dict[str, float],
+    params: TomographicParams,
+) -> tuple[float, dict[str, float]]:
+    """The robust confidence of ``best``; adds its measures to ``evidence``."""
+    robust = params.robust
+    agreement, quality = tolerant_fit(
+        first, second, best, tolerance=robust.tolerance, params=params.verify
+    )
+    smaller = min(open_cells(first), open_cells(second))
+    strength = evidence["strength"]
+    for width in robust.strength_widths:
+        wider = replace(params.gauss_newton, curvature_sigma=width, curvature_step=width)
+        wide = constraint_strength(smoothed, second, best, local=True, params=wider)
+        strength = max(strength, wide * width**2)
+    measures = {
+        # With no different placement at all, nothing competes: the margin passes.
+        "margin": evidence.get("margin", robust.margin + 1.0),
+        "agreeing": check.agreeing,
+        "agreement": agreement,
+        "quality": quality,
+        "open_share": check.shared_space / (2.0 * smaller) if smaller > 0 else 0.0,
+        "open_consistency": open_consistency(first, second, best),
+        "strength": strength,
+    }
+    evidence.update({f"tolerant_{k}": v for k, v in measures.items() if k != "margin"})
+    return robust_confidence(measures, robust)
+
+
+REASON_ORDER = ("fit", "support", "constraint", "distinct", "space")
+"""The close-fit factors in the order a refusal names them when several fail."""
+
+
+def refusal_reason(
+    close: tuple[float, ...], robust: dict[str, float], evidence: dict[str, float]
+) -> str:
+    """One sentence saying why a placement is not vouched for.
+
+    The first failing factor of the close fit, in :data:`REASON_ORDER`,
+    names the cause. When that is the fit itself (the walls do not meet
+    within a cell or so) and the robust way was tried too, its failing
+    factors refine it: a competing placement means ambiguity, a weak
+    constraint a single wall or corridor.
+    """
+    values = dict(zip(CLOSE_FACTORS, close, strict=True))
+    failing = [name for name in REASON_ORDER if values[name] < 0.5]
+    cause = failing[0] if failing else min(values, key=lambda name: values[name])
+    small = False
+    if cause == "fit" and robust:
+        weak = {name for name, value in robust.items() if value < 0.5}
+        cause = "distinct" if "margin" in weak else "constraint" if "strength" in weak else "fit"
+        small = bool(weak & {"agreeing", "open_share"})
+    if cause == "distinct":
+        distance = evidence.get("runner_up_distance_cells", 0.0)
+        turn = evidence.get("runner_up_turn_deg", 0.0)
+        turned = f", turned {turn:.0f} degrees from it" if turn >= 1.0 else ""
+        return (
+            "ambiguous: another placement about as good lies "
+            f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
+            "symmetric part of the building"
+        )
+    if cause == "fit" and small:
+        return (
+            "the walls do not line up closely, and the overlap is too small to vouch for "
+            "maps that bend against each other"
+        )
+    return {
+        "fit": "the walls do not line up: too many of them land on the other map's open "
+        "space (the maps disagree where they would overlap)",
+        "support": "too little overlap: too few walls line up to be sure of the placement",
+        "constraint": "only one wall or corridor to align on: the maps could slide along it",
+        "space": "the maps share walls but no open space: they may show two neighbouring "
+        "rooms side by side",
+    }[cause]
+
+
+def _rms_between(
+    a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]
+) -> float:
+    """RMS distance, in cells, between where ``a`` and ``b`` put ``points``."""
+    diff = apply_transform(a, points) - apply_transform(b, points)
+    return float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))

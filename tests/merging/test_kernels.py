@@ -1,0 +1,157 @@
+"""The default merger's kernels on their own: angular spectra, refinement, verification."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import merging
+from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
+from merging.params import TomographicParams
+from merging.refine import SmoothedMap, refine_transform
+from merging.tomographic import refine_from
+from merging.transforms import rigid_matrix
+from merging.verify import (
+    Verification,
+    confidence,
+    confidence_factors,
+    dilate,
+    prepare_map,
+    verify,
+)
+
+from .conftest import synthetic_building
+from .test_tomographic import turned
+
+SPECTRUM_SIZE = 512
+"""FFT size for the angular spectra of the 260 x 360 test building."""
+
+
+def walls_image(cells: np.ndarray) -> np.ndarray:
+    return (cells >= 65).astype(np.float32)
+
+
+def test_translation_leaves_the_angular_spectrum_unchanged(building: np.ndarray) -> None:
+    # A whole-cell shift inside the FFT frame changes only the phase of the spectrum.
+    moved = np.full((300, 400), -1, dtype=np.int8)
+    moved[23 : 23 + building.shape[0], 31 : 31 + building.shape[1]] = building
+    first = angular_spectrum(walls_image(building), size=SPECTRUM_SIZE)
+    second = angular_spectrum(walls_image(moved), size=SPECTRUM_SIZE)
+    assert np.allclose(first.values, second.values, atol=1e-4)
+
+
+@pytest.mark.parametrize("degrees", [17.0, 63.0, 121.0])
+def test_rotation_correlation_peaks_at_the_turn_of_map_2(building, degrees: float) -> None:
+    # Map 2 shows map 1 turned counter-clockwise by +degrees: the correlation peaks at
+    # +degrees (modulo 180), not at -degrees.
+    map2, _ = turned(building, degrees, (0.0, 0.0))
+    first = angular_spectrum(walls_image(building), size=SPECTRUM_SIZE)
+    second = angular_spectrum(walls_image(map2), size=SPECTRUM_SIZE)
+    (angle, _), *_ = rotation_peaks(rotation_correlation(first, second), count=1)
+    error = (angle - degrees + 90.0) % 180.0 - 90.0
+    assert abs(error) < 1.0
+
+
+@pytest.mark.parametrize("offset", [(1.5, 0.0), (0.0, -1.5), (1.06, 1.06)])
+def test_gauss_newton_from_one_and_a_half_cells_off_converges(offset) -> None:
+    grid = synthetic_building(5)
+    first, second = prepare_map(grid), prepare_map(grid)
+    smoothed = SmoothedMap(first.walls, first.shape)
+    start = rigid_matrix(offset[0], offset[1], np.deg2rad(0.3))
+    refined = refine_transform(smoothed, second, start, sigmas=(2.0, 1.0, 0.6), iterations=10)
+    # The truth is the identity: every wall cell should land within 0.1 cell of itself.
+    moved = second.points @ refined[:2, :2].T + refined[:2, 2]
+    rms = float(np.sqrt(np.mean(np.sum((moved - second.points) ** 2, axis=1))))
+    assert rms < 0.1
+
+
+def test_refine_from_a_nearby_start_verifies_and_accepts(building: np.ndarray) -> None:
+    map2, truth = turned(building, 30.0, (4.0, -3.0))
+    start = rigid_matrix(1.2, -0.8, np.deg2rad(0.4)) @ truth
+    result = refine_from(building, map2, start)
+    assert result.accepted
+    assert merging.transform_error(result.matrix, truth, map2)[0] < 0.5
+
+
+GOOD = Verification(agreement=0.9, conflict=0.02, overlap=2000.0, agreeing=1800.0,
+                    shared_space=3000.0)  # fmt: skip
+"""A verification that every factor likes, but none saturates."""
+
+
+@pytest.mark.parametrize(
+    ("factor", "worse", "better"),
+    [
+        ("fit", replace(GOOD, agreement=0.8), GOOD),
+        ("fit", replace(GOOD, conflict=0.05), GOOD),
+        ("support", replace(GOOD, agreeing=60.0), replace(GOOD, agreeing=200.0)),
+        ("shared space", replace(GOOD, shared_space=500.0), replace(GOOD, shared_space=2000.0)),
+    ],
+)
+def test_confidence_rises_with_each_factor(factor, worse, better) -> None:
+    assert confidence(better) > confidence(worse), factor
+
+
+def test_confidence_rises_with_distinctiveness_and_constraint() -> None:
+    close = replace(GOOD, agreement=0.7)  # a runner-up explaining nearly as much
+    far = replace(GOOD, agreement=0.4)
+    assert confidence(GOOD, far) > confidence(GOOD, close)
+    assert confidence(GOOD, strength=30.0) > confidence(GOOD, strength=3.0)
+    factors = confidence_factors(GOOD, far, strength=30.0)
+    assert len(factors) == 5 and all(0.0 <= f <= 1.0 for f in factors)
+    assert confidence(GOOD, far, strength=30.0) == pytest.approx(float(np.prod(factors)))
+
+
+@pytest.mark.parametrize("radius", [0, 1, 3])
+def test_dilate_matches_scipy(radius: int) -> None:
+    mask = np.random.default_rng(2).random((57, 83)) < 0.02
+    mask[0, 0] = mask[-1, -1] = True  # the edges too
+    expected = ndimage.binary_dilation(mask, structure=np.ones((2 * radius + 1,) * 2, bool))
+    assert np.array_equal(dilate(mask, radius), expected)
+
+
+def test_verification_counts_agreement_and_conflict() -> None:
+    # A wall carried onto the other map's wall agrees; carried into its open room it conflicts.
+    grid = np.full((60, 60), 0, dtype=np.int8)
+    grid[30, 5:55] = 100
+    first = second = prepare_map(grid)
+    on = verify(first, second, np.eye(3))
+    assert on.agreement == pytest.approx(1.0) and on.conflict == 0.0
+    off = verify(first, second, rigid_matrix(0.0, 12.0, 0.0))
+    assert off.conflict > 0.9 and off.agreement == 0.0
+
+
+def test_params_change_the_verdict(building: np.ndarray) -> None:
+    map2, _ = turned(building, 40.0, (3.0, 2.0))
+    default = merging.estimate_transform(building, map2)
+    assert default.accepted
+    never = TomographicParams()
+    never = replace(never, confidence=replace(never.confidence, accept=1.01))
+    refused = merging.estimate_transform(building, map2, params=never)
+    assert not refused.accepted
+    assert np.allclose(refused.matrix, default.matrix)
+
+
+def test_params_for_a_method_without_settings_are_a_type_error(building) -> None:
+    with pytest.raises(TypeError, match="'paper' method takes no params"):
+        merging.estimate_transform(building, building, method="paper", params=TomographicParams())
+    with pytest.raises(TypeError, match="must be a TomographicParams"):
+        merging.estimate_transform(building, building, params={"accept": 0.4})
+
+
+def test_params_validate_the_schedule() -> None:
+    with pytest.raises(ValueError, match="at least one RefineStage"):
+        TomographicParams(stages=())
+    with pytest.raises(TypeError, match="stages\\[0\\] must be a RefineStage"):
+        TomographicParams(stages=("wide",))  # type: ignore[arg-type]
+
+
+def test_refine_from_validates_its_input(building: np.ndarray) -> None:
+    with pytest.raises(ValueError, match="3x3"):
+        refine_from(building, building, np.eye(2))
+    with pytest.raises(TypeError, match="TomographicParams"):
+        refine_from(building, building, np.eye(3), params=object())  # type: ignore[arg-type]
+    grid = merging.OccupancyGrid(building)
+    assert refine_from(grid, grid, rigid_matrix(0.8, -0.5, 0.002)).accepted
