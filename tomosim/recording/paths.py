@@ -30,7 +30,8 @@
     team/path_length/r0, .../total     metres travelled by robot 0 and the team, every step
     team/overlap_rate                  sum of the robots' coverages over the team's, less one
     team/...                           any other scalar series of the team's exploration
-                                       (TEAM: the viewer's "Team" chart shows them all)
+                                       (TEAM: the viewer's "Team" chart shows them all but
+                                       the path lengths, which have a chart of their own)
 
 Quantities come first and pairs last in ``merge/``, so that one entity filter
 (``merge/rotation_error_deg/**``) selects a quantity of every pair: rerun's
@@ -66,6 +67,7 @@ MERGE_LOG = "merge/log"
 TEAM = "team"
 COVERAGE = "team/coverage"
 OVERLAP_RATE = "team/overlap_rate"
+PATH_LENGTHS = "team/path_length"
 PATH_LENGTH_TOTAL = "team/path_length/total"
 
 PAIR_QUANTITIES = (
@@ -159,7 +161,7 @@ def robot_coverage_path(robot: int) -> str:
 
 def path_length_path(robot: int) -> str:
     """``team/path_length/r0``: metres the robot travelled."""
-    return f"team/path_length/{robot_name(robot)}"
+    return f"{PATH_LENGTHS}/{robot_name(robot)}"
 
 
 def pair_path(pair: str, quantity: str) -> str:
