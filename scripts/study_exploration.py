@@ -50,7 +50,7 @@ from exploration_study.report import (
     policies_verdict,
     times_table,
 )
-from exploration_study.runs import Grid, read_rows, run_world
+from exploration_study.runs import Grid, progress, read_rows, run_world
 from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
 from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
 
@@ -134,12 +134,28 @@ def report(
         "",
         checks_markdown(checks(worlds, tables, policy, grid.robots)),
         "",
+        "## Progress: episodes in the results files, of those the study plans",
+        "",
+        progress_table(worlds, grid, policy, comm_ranges, out),
+        "",
     ]
     markdown = "\n".join(text)
     (out / "study_exploration.md").write_text(markdown)
     times_figure(worlds, tables, policy, grid.robots, out / "time_to_90.png")
     gains_figure(worlds, tables, policy, grid.robots, out / "merging_gains.png")
     return markdown
+
+
+def progress_table(
+    worlds: list[StudyWorld], grid: Grid, policy: str, comm_ranges: tuple[float, ...], out: Path
+) -> str:
+    """Per world, the episodes run so far of those the study's stages plan."""
+    lines = ["| world | done | planned |", "|---|---:|---:|"]
+    for world in worlds:
+        parts = [g for w, g in stages(worlds, grid, policy, comm_ranges) if w == world]
+        done, planned = progress(world, parts, out)
+        lines.append(f"| {world.label} | {done} | {planned} |")
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

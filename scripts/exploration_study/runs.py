@@ -103,3 +103,16 @@ def read_rows(
 ) -> dict[str, list[dict[str, str]]]:
     """Every world's rows so far (with ``comm_range``), by label."""
     return {w.label: ResultsFile(results_path(folder, w, comm_range)).rows() for w in worlds}
+
+
+def progress(world: StudyWorld, grids: Sequence[Grid], folder: Path) -> tuple[int, int]:
+    """``(done, planned)``: the world's episodes of ``grids`` already in its results files."""
+    planned: dict[Path, set[str]] = {}
+    for grid in grids:
+        path = results_path(folder, world, grid.comm_range)
+        keys = planned.setdefault(path, set())
+        keys.update(e.key for plan in plans(world, grid) for e in plan.episodes())
+    done = 0
+    for path, keys in planned.items():
+        done += len(keys & {row["key"] for row in ResultsFile(path).rows()})
+    return done, sum(len(keys) for keys in planned.values())
