@@ -3,7 +3,10 @@
 Both commands describe merge rounds the same way: per pair, how many of the
 rounds' estimates the merger accepted and how many were confirmed (and so
 used), and the rotation and translation errors of the accepted ones against
-the simulator's truth (:mod:`tomosim.team.quality`).
+the simulator's truth (:mod:`tomosim.team.quality`); and the exploration
+figures the same way (time to the target, path lengths, each robot's
+coverage, the overlap rate): from the episode's metrics for ``explore``, from
+the recording's ``team/`` series for ``review`` (:func:`recorded_figures`).
 """
 
 from __future__ import annotations

@@ -43,8 +43,8 @@ UTILITY_WEIGHT_M = 12.0
 """Metres of path a fresh target is worth: a cell at a teammate's target (utility 0)
 loses to any other frontier up to 12 m further away, about the width of two rooms of
 a generated floor, so robots split across neighbouring rooms rather than follow
-each other; further frontiers are left to the teammate. Chosen with
-``scripts/study_exploration.py`` on generated floors."""
+each other; further frontiers are left to the teammate. Set by that reasoning, not
+tuned; ``scripts/study_exploration.py`` measures the policy with it."""
 DISCOUNT_RADIUS_M = 6.0
 """Metres: ``R`` of the visibility probability ``P(d)``. The paper takes the sensor's
 range; indoors walls hide most of an 8 m lidar's reach, and a smaller radius keeps
