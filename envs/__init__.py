@@ -2,7 +2,11 @@
 
 * :mod:`envs.multi_robot_exploration_v0`: robots explore from unknown start
   poses and merge their maps periodically (parallel API, spec card in its
-  docstring).
+  docstring);
+* :mod:`envs.vector`: K of them at once (SuperSuit's vector envs, Gymnasium's
+  ``AsyncVectorEnv``), and :mod:`envs.sb3`, a Stable-Baselines3 ``VecEnv``;
+* :mod:`envs.baselines`: random, constant and frontier agents to compare a
+  learner with.
 
 Importing this package registers the Gymnasium single-agent view
 (:mod:`envs.centralised`) as ``tomosim/MultiRobotExploration-v0``::

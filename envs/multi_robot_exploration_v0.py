@@ -75,7 +75,8 @@ Infos (per agent, new objects every step)
 ``step``; ``team_coverage`` and ``coverage`` (this robot's own) as fractions of
 the free space; ``teammates``: the agents whose maps this robot sees;
 ``merged_now``: a merge round ran at this step; ``merge``: the latest merge
-round (empty before the first) with ``step``, ``method``, ``agreement`` (the
+round (empty before the first; one dictionary shared by the agents of a step)
+with ``step``, ``method``, ``agreement`` (the
 merged map's acceptance index against the ground truth, placed by its
 reference robot's true start pose), ``accepted`` (number of accepted pair
 estimates), ``merged_robots`` (agent ids), and ``pairs``: per pair of agents
@@ -83,10 +84,20 @@ estimates), ``merged_robots`` (agent ids), and ``pairs``: per pair of agents
 robot 0's (``estimate``,
 ``truth``: x, y metres, yaw radians), ``rotation_error_deg``,
 ``translation_error_m`` (``inf`` without an estimate), ``matching_index``
-(eq. 31 of the paper), ``confidence``, ``accepted``, ``confirmed``, ``used``,
+(eq. 31 of the paper; None for estimates not accepted), ``confidence``,
+``accepted``, ``confirmed``, ``used``,
 ``dropped`` (confirmed but contradicting the other links) and the merger's
 ``reason``. Reports and recordings of tomosim call the same robots ``r0``,
 ``r1``, ... (:func:`tomosim.team.robot_name`).
+
+At the last step of an episode each agent's info also holds ``episode``: ``r``
+(the agent's return), ``l`` (steps), its ``coverage``, ``team_coverage``,
+``terminated``, ``truncated``, ``world`` (its name) and every agent's
+``returns`` (``r`` and ``l`` as in Stable-Baselines3's ``Monitor``). No reset
+info has this key, so a vector environment that resets on its own and merges
+the reset's infos into the last step's (SuperSuit's) keeps it; the same
+dictionary, without ``r`` and ``coverage``, stays in ``env.last_episode``
+until the next episode ends.
 
 Arguments
 ---------
@@ -95,7 +106,12 @@ floor plan 0), ``world_size`` (width, height of a generated floor plan, metres),
 ``robots`` (3), ``max_cycles`` (1500), ``merge`` (True), ``merge_interval`` (50),
 ``method`` ("tomographic"), ``coverage_target`` (0.9), ``crop_size`` (64),
 ``crop_resolution`` (0.1 m), ``simulation`` (a ``tomosim.simulation.SimulationConfig``),
-``render_mode`` (None, "rgb_array" or "human"; below).
+``render_mode`` (None, "rgb_array" or "human"; below), ``floors`` (None, or floor
+plan seeds: each reset generates a floor drawn from them, of ``world_size``; use
+``TRAINING_FLOORS`` to learn and ``HELD_OUT_FLOORS``, disjoint from them, to
+evaluate), ``observation_format`` ("metric", the table above, or "normalised",
+for learners: the map as a ``uint8`` image of channels free, occupied, unknown,
+scan and pose scaled to ``[0, 1]`` and ``[-1, 1]``; see :mod:`envs.observations`).
 
 Rendering
 ---------
@@ -116,11 +132,16 @@ poses, odometry and lidar noise, merging) comes from streams derived from it.
 
 Version history
 ---------------
-* v0: initial version; ``render_mode="human"`` added (no change to the dynamics).
+* v0: initial version. Later additions left its defaults (spaces, dynamics,
+  rewards) as they were and so kept the name: ``render_mode="human"``, the
+  options ``floors`` and ``observation_format``, and the ``episode`` info of the
+  last step.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -131,7 +152,16 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils import wrappers
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
-from envs.observations import action_space, command, observation_space, observe, pose_bound
+from envs.observations import (
+    OBSERVATION_FORMATS,
+    action_space,
+    command,
+    normalise,
+    normalised_observation_space,
+    observation_space,
+    observe,
+    pose_bound,
+)
 from envs.rendering import HumanWindow, render_frame
 from merging.api import DEFAULT_METHOD
 from tomosim.episode import load_world
@@ -139,6 +169,11 @@ from tomosim.simulation import SimulationConfig
 from tomosim.team import TeamConfig, TeamSession, robot_name
 from tomosim.worlds import World
 
+TRAINING_FLOORS = range(1000, 1_000_000)
+"""Floor plan seeds to draw training worlds from (``floors=TRAINING_FLOORS``)."""
+HELD_OUT_FLOORS = range(0, 1000)
+"""Floor plan seeds never in :data:`TRAINING_FLOORS`, for evaluation; the default
+world (floor 0) is one of them."""
 RESOLUTION_TOLERANCE = 1e-9
 """Relative slack when checking that the crop resolution is a whole number of map cells."""
 
@@ -173,6 +208,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         crop_resolution: float = 0.1,
         simulation: SimulationConfig | None = None,
         render_mode: str | None = None,
+        floors: Sequence[int] | None = None,
+        observation_format: str = OBSERVATION_FORMATS[0],
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -187,6 +224,19 @@ class MultiRobotExplorationEnv(ParallelEnv):
             raise ValueError(f"coverage_target must be in (0, 1], got {coverage_target}")
         if not (isinstance(crop_size, int | np.integer) and crop_size >= 2 and crop_size % 2 == 0):
             raise ValueError(f"crop_size must be an even number of cells >= 2, got {crop_size!r}")
+        if observation_format not in OBSERVATION_FORMATS:
+            raise ValueError(
+                f"observation_format must be one of {OBSERVATION_FORMATS}, "
+                f"got {observation_format!r}"
+            )
+        if floors is not None:
+            if isinstance(world, World) or world != 0:
+                raise ValueError("give either world or floors, not both")
+            if len(floors) == 0 or any(int(f) < 0 for f in floors):
+                raise ValueError(
+                    f"floors must be non-negative floor plan seeds, got {floors!r}; "
+                    "e.g. TRAINING_FLOORS or HELD_OUT_FLOORS"
+                )
         self.team_config = TeamConfig(
             merge=merge,
             method=method,
@@ -200,7 +250,12 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 f"crop_resolution must be a whole multiple of the map's {resolution} m cells, "
                 f"got {crop_resolution}"
             )
+        self.floors = floors
+        self.world_size = world_size
+        if floors is not None:
+            world = int(floors[0])  # every floor of one size has the same bounds
         self.world = world if isinstance(world, World) else load_world(world, size=world_size)
+        self.observation_format = observation_format
         self.render_mode = render_mode
         self.max_cycles = int(max_cycles)
         self.coverage_target = float(coverage_target)
@@ -210,12 +265,20 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self.possible_agents = [agent_name(k) for k in range(int(robots))]
         self.agents: list[str] = []
         lidar = self.team_config.simulation.lidar
-        self._observation_space = observation_space(
-            lidar.beams, lidar.max_range, self.crop_size, self._bound
-        )
+        self._max_range = lidar.max_range
+        if observation_format == "normalised":
+            self._observation_space = normalised_observation_space(lidar.beams, self.crop_size)
+        else:
+            self._observation_space = observation_space(
+                lidar.beams, lidar.max_range, self.crop_size, self._bound
+            )
         self._action_space = action_space()
         self.np_random: np.random.Generator | None = None
         self.session: TeamSession | None = None
+        self.last_episode: dict[str, Any] | None = None
+        self._merge_source: Any = None
+        self._merge_info: dict[str, Any] = {}
+        self._returns = np.zeros(len(self.possible_agents))
         self.window: HumanWindow | None = None
         if render_mode == "human":
             self.window = HumanWindow(self.metadata["render_fps"], title=self.metadata["name"])
@@ -245,6 +308,10 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self, generator: np.random.Generator
     ) -> tuple[dict[str, dict[str, NDArray[Any]]], dict[str, dict[str, Any]]]:
         """Start a new episode drawing from ``generator``; returns observations and infos."""
+        if self.floors is not None:
+            floor = int(self.floors[int(generator.integers(len(self.floors)))])
+            self.world = load_world(floor, size=self.world_size)
+        self._returns = np.zeros(len(self.possible_agents))
         self.session = TeamSession(
             self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
         )
@@ -285,24 +352,61 @@ class MultiRobotExplorationEnv(ParallelEnv):
         terminations = dict.fromkeys(self.agents, bool(done))
         truncations = dict.fromkeys(self.agents, bool(cut and not done))
         infos = self._infos(merged_now=merge is not None)
+        self._returns += session.rewards
         if done or cut:
+            self._end_episode(infos, terminated=bool(done))
             self.agents = []
         if self.window is not None:
             self.render()
         return observations, rewards, terminations, truncations, infos
 
+    def _end_episode(self, infos: dict[str, dict[str, Any]], *, terminated: bool) -> None:
+        """Keep the episode's final figures (``last_episode``, ``infos[a]["episode"]``)."""
+        session = self.session
+        assert session is not None  # step() checked it
+        summary = {
+            "l": session.steps,
+            "team_coverage": session.coverage.fraction,
+            "terminated": terminated,
+            "truncated": not terminated,
+            "world": self.world.name,
+            "returns": {
+                a: float(r) for a, r in zip(self.possible_agents, self._returns, strict=True)
+            },
+        }
+        self.last_episode = summary
+        for k, agent in enumerate(self.possible_agents):
+            infos[agent]["episode"] = {
+                **summary,
+                "r": float(self._returns[k]),
+                "coverage": session.coverage.robot_fraction(k),
+            }
+
     def _observations(self) -> dict[str, dict[str, NDArray[Any]]]:
         assert self.session is not None  # reset() made it
-        return {
+        observations = {
             agent: observe(self.session, k, size=self.crop_size, pool=self.pool, bound=self._bound)
             for k, agent in enumerate(self.possible_agents)
             if agent in self.agents
         }
+        if self.observation_format == "normalised":
+            return {
+                agent: normalise(obs, bound=self._bound, max_range=self._max_range)
+                for agent, obs in observations.items()
+            }
+        return observations
 
     def _infos(self, *, merged_now: bool) -> dict[str, dict[str, Any]]:
         session = self.session
         assert session is not None  # reset() made it
         scored = session.last_quality
+        if scored is not self._merge_source:  # the round's dictionary, built once per round
+            self._merge_source = scored
+            self._merge_info = {} if scored is None else scored.as_dict(name=agent_name)
+            for pair in self._merge_info.get("pairs", {}).values():  # nan is not equal to itself
+                if not math.isfinite(pair["matching_index"]):
+                    pair["matching_index"] = None
+        merge_info = _copy_merge_info(self._merge_info)
         infos = {}
         for k, agent in enumerate(self.possible_agents):
             if agent not in self.agents:
@@ -313,7 +417,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 "coverage": session.coverage.robot_fraction(k),
                 "teammates": [agent_name(t) for t in session.shared.teammates(k)],
                 "merged_now": merged_now,
-                "merge": {} if scored is None else scored.as_dict(name=agent_name),
+                "merge": merge_info,
             }
         return infos
 
@@ -337,6 +441,17 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.window.close()
 
 
+def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:
+    """A copy of a round's info dictionary down to its mutable parts (tuples are shared)."""
+    if not info:
+        return {}
+    return {
+        **info,
+        "merged_robots": list(info["merged_robots"]),
+        "pairs": {name: dict(pair) for name, pair in info["pairs"].items()},
+    }
+
+
 def parallel_env(**kwargs: Any) -> MultiRobotExplorationEnv:
     """The native parallel environment (arguments as in the module docstring)."""
     return MultiRobotExplorationEnv(**kwargs)
@@ -353,6 +468,8 @@ def env(**kwargs: Any) -> AECEnv:
 
 
 __all__ = [
+    "HELD_OUT_FLOORS",
+    "TRAINING_FLOORS",
     "MultiRobotExplorationEnv",
     "agent_name",
     "env",

@@ -18,6 +18,21 @@ its map frame, not rotated with its heading (``pose[2]`` gives the heading);
 row 0 is the window's lowest ``y``. Each window cell covers ``pool x pool``
 map cells and holds their maximum, so walls survive the coarsening.
 
+In the *normalised* format (``observation_format="normalised"``), for
+learners, every value lies in a fixed small range and the map is an image:
+
+=======  ==================  ========  =================================================
+key      shape               dtype     values
+=======  ==================  ========  =================================================
+scan     (beams,)            float32   ranges as fractions of ``max_range``, ``[0, 1]``
+map      (3, size, size)     uint8     channels *free*, *occupied*, *unknown* of the same
+                                       window: 255 where the cell is free (<= 19),
+                                       occupied (>= 65) or unknown (-1), else 0 (a cell
+                                       in between is none of them)
+pose     (4,)                float32   ``(x / bound, y / bound, cos theta, sin theta)``,
+                                       ``[-1, 1]``
+=======  ==================  ========  =================================================
+
 Action of one robot: ``Box(-1, 1, (2,), float32)``, the linear and angular
 velocity as fractions of the robot's maximum forward speed and turn rate;
 values outside the box are clipped.
@@ -26,15 +41,20 @@ values outside the box are clipped.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from merging.grid import OCCUPIED, UNKNOWN
+from merging.grid import FREE_THRESHOLD, OCCUPIED, OCCUPIED_THRESHOLD, UNKNOWN
 from tomosim.team import TeamSession
 from tomosim.worlds import World
 
+OBSERVATION_FORMATS = ("metric", "normalised")
+"""The observation formats (module docstring); the first is the default."""
+CHANNEL_ON = 255
+"""Pixel value of a map cell that is in a channel's class."""
 POSE_MARGIN = 10.0
 """Metres added to the world's diagonal for the bound of a pose estimate, room for
 odometry drift; an estimate beyond it is clipped."""
@@ -61,6 +81,40 @@ def observation_space(beams: int, max_range: float, size: int, bound: float) -> 
     )
 
 
+def normalised_observation_space(beams: int, size: int) -> spaces.Dict:
+    """The space of one robot's observation in the normalised format (module docstring)."""
+    return spaces.Dict(
+        {
+            "scan": spaces.Box(0.0, 1.0, shape=(beams,), dtype=np.float32),
+            "map": spaces.Box(0, CHANNEL_ON, shape=(3, size, size), dtype=np.uint8),
+            "pose": spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32),
+        }
+    )
+
+
+def map_image(cells: NDArray[np.int8]) -> NDArray[np.uint8]:
+    """``(3, rows, cols)`` uint8 channels free, occupied, unknown of ROS-coded ``cells``."""
+    image = np.zeros((3, *cells.shape), dtype=np.uint8)
+    image[0][(cells >= 0) & (cells <= FREE_THRESHOLD)] = CHANNEL_ON
+    image[1][cells >= OCCUPIED_THRESHOLD] = CHANNEL_ON
+    image[2][cells < 0] = CHANNEL_ON
+    return image
+
+
+def normalise(
+    observation: dict[str, NDArray[Any]], *, bound: float, max_range: float
+) -> dict[str, NDArray[Any]]:
+    """A metric-format observation in the normalised format (module docstring)."""
+    x, y, theta = (float(v) for v in observation["pose"])
+    return {
+        "scan": (observation["scan"] / np.float32(max_range)).astype(np.float32),
+        "map": map_image(observation["map"]),
+        "pose": np.array(
+            [x / bound, y / bound, math.cos(theta), math.sin(theta)], dtype=np.float32
+        ).clip(-1.0, 1.0),
+    }
+
+
 def action_space() -> spaces.Box:
     """The space of one robot's action (module docstring)."""
     return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
@@ -71,20 +125,22 @@ def observe(
 ) -> dict[str, NDArray[np.float32] | NDArray[np.int8]]:
     """Robot ``robot``'s observation now (new arrays every call)."""
     scan = session.simulation.scans[robot]
-    ranges = np.where(np.isfinite(scan.ranges), scan.ranges, scan.max_range)
-    pose = session.simulation.odometry[robot].pose
-    limit = np.array([bound, bound, math.pi])
+    ranges = scan.ranges.astype(np.float32)  # returns already lie in [0, max_range]
+    ranges[~np.isfinite(ranges)] = scan.max_range
+    x, y, theta = (float(v) for v in session.simulation.odometry[robot].pose)
     return {
-        "scan": np.clip(ranges, 0.0, scan.max_range).astype(np.float32),
+        "scan": ranges,
         "map": session.best_crop(robot, size=size, pool=pool),
-        "pose": np.clip(pose, -limit, limit).astype(np.float32),
+        "pose": np.array(
+            [min(max(x, -bound), bound), min(max(y, -bound), bound), theta], dtype=np.float32
+        ),
     }
 
 
 def command(action: object, *, name: str) -> NDArray[np.float64]:
     """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
     values = np.asarray(action, dtype=np.float64).reshape(-1)
-    if values.shape != (2,) or not np.all(np.isfinite(values)):
+    if values.shape != (2,) or not (math.isfinite(values[0]) and math.isfinite(values[1])):
         raise ValueError(
             f"the action of {name} must be two finite numbers (linear, angular), got {action!r}"
         )

@@ -7,8 +7,9 @@ wander under smooth random commands, so they meet walls and each other as in
 an episode. Each configuration is timed ``--repeats`` times on one core;
 the table gives the median and the spread (min..max).
 
-A second table times one scan with the numpy caster against pymunk's segment
-queries, the oracle the tests compare it with. With ``--explore``, a third
+A second table times one scan with the compiled caster the lidar uses, the
+numpy caster it was written from, and pymunk's segment queries, the oracle
+the tests compare both with. With ``--explore``, a third
 table follows one robot under the frontier policy on generated floors and
 reports the fraction of the free space it has mapped against the steps taken.
 
@@ -30,6 +31,7 @@ from tomosim.evaluation import coverage
 from tomosim.exploration import FrontierPolicy
 from tomosim.lidar import LidarConfig
 from tomosim.lidar_oracle import cast_pymunk
+from tomosim.raycast import cast_segments, cull_segments, segment_bounds
 from tomosim.simulation import Simulation, SimulationConfig
 from tomosim.worlds import generate_floorplan
 
@@ -66,24 +68,34 @@ def bench_simulation(robots: int, steps: int, repeats: int, beams: int) -> list[
     return rates
 
 
-def bench_lidar(scans: int, beams: int) -> tuple[float, float]:
-    """Microseconds per noise-free scan: (numpy caster, pymunk segment queries)."""
+def bench_lidar(scans: int, beams: int) -> tuple[float, float, float]:
+    """Microseconds per noise-free scan: (compiled kernel, numpy caster, pymunk queries)."""
     world = generate_floorplan(WORLD_SEED)
     sim = Simulation(
         world, robots=3, config=SimulationConfig(lidar=LidarConfig(beams=beams)), rng=0
     )
     poses = world.sample_free_poses(scans, clearance=0.5, rng=1)
     lidar = sim.lidar
-    angles = lidar.config.angles()
+    cfg = lidar.config
+    angles = cfg.angles()
+    bounds = segment_bounds(lidar.walls)
+    lidar.true_ranges(poses[0])  # compiled already, or compiled now: not timed
     start = time.perf_counter()
     for pose in poses:
         lidar.true_ranges(pose)
+    kernel_us = (time.perf_counter() - start) / scans * 1e6
+    start = time.perf_counter()
+    for pose in poses:
+        near = lidar.walls[cull_segments(pose[:2], bounds, cfg.max_range)]
+        cast_segments(
+            pose[:2], pose[2] + cfg.first_angle, cfg.increment, cfg.beams, near, cfg.max_range
+        )
     numpy_us = (time.perf_counter() - start) / scans * 1e6
     start = time.perf_counter()
     for pose in poses:
-        cast_pymunk(sim.physics.space, pose, angles, lidar.config.max_range)
+        cast_pymunk(sim.physics.space, pose, angles, cfg.max_range)
     pymunk_us = (time.perf_counter() - start) / scans * 1e6
-    return numpy_us, pymunk_us
+    return kernel_us, numpy_us, pymunk_us
 
 
 def explore(seed: int, budget: int, checkpoints: list[int]) -> tuple[list[float], int]:
@@ -133,10 +145,11 @@ def main() -> None:
             f"{robots:>6} {args.steps:>6} {statistics.median(rates):>21.0f} "
             f"{min(rates):>8.0f} {max(rates):>8.0f}"
         )
-    numpy_us, pymunk_us = bench_lidar(args.scans, args.beams)
+    kernel_us, numpy_us, pymunk_us = bench_lidar(args.scans, args.beams)
     print(f"\nlidar, one {args.beams}-beam scan without noise:")
-    print(f"  numpy angular-sweep caster   {numpy_us:8.0f} us")
-    print(f"  pymunk segment_query_first   {pymunk_us:8.0f} us")
+    print(f"  compiled kernel (tomosim.kernels)  {kernel_us:8.0f} us")
+    print(f"  numpy angular-sweep caster         {numpy_us:8.0f} us")
+    print(f"  pymunk segment_query_first         {pymunk_us:8.0f} us")
     if args.explore:
         checkpoints = [args.budget * k // 6 for k in range(1, 7)]
         print("\nexploration, one robot, default 30 m x 20 m floor: fraction of free space mapped")

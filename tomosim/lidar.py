@@ -10,9 +10,11 @@ Scan coding (every consumer relies on it):
 * ``ranges`` are metres: finite for a return, ``inf`` when nothing lies
   within ``max_range``, ``nan`` for a dropout (the beam reported nothing).
 
-The robot does not see itself; other robots are circles and are seen. Walls
-are cast with :func:`tomosim.raycast.cast_segments`, which is checked against
-pymunk's segment queries (:mod:`tomosim.lidar_oracle`) in the tests.
+The robot does not see itself; other robots are circles and are seen. A
+scan is cast by the compiled :func:`tomosim.kernels.raycast.cast_scan`, the
+algorithm of :func:`tomosim.raycast.cast_segments` and
+:func:`tomosim.raycast.cast_circles` in one loop; the tests check it against
+those and against pymunk's segment queries (:mod:`tomosim.lidar_oracle`).
 """
 
 from __future__ import annotations
@@ -22,13 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tomosim.raycast import (
-    beam_directions,
-    cast_circles,
-    cast_segments,
-    cull_segments,
-    segment_bounds,
-)
+from tomosim.kernels.raycast import add_noise, cast_scan
 from tomosim.worlds.world import as_segments
 
 FULL_CIRCLE_TOLERANCE = 1e-9
@@ -133,14 +129,14 @@ class Lidar:
         Wall segments in metres.
     """
 
-    __slots__ = ("_angles", "_bounds", "config", "walls")
+    __slots__ = ("_angles", "_flat_walls", "config", "walls")
 
     def __init__(self, config: LidarConfig, walls: ArrayLike) -> None:
         if not isinstance(config, LidarConfig):
             raise TypeError(f"config must be a LidarConfig, got {type(config).__name__}")
         self.config = config
         self.walls = as_segments(walls)
-        self._bounds = segment_bounds(self.walls)
+        self._flat_walls = np.ascontiguousarray(self.walls.reshape(-1, 4), dtype=np.float64)
         self._angles = config.angles()
         self._angles.setflags(write=False)
 
@@ -156,21 +152,23 @@ class Lidar:
         ``others`` are ``(C, 2)`` centres of the other robots (never the
         scanning robot itself), ``other_radii`` their ``(C,)`` radii, metres.
         """
-        x, y, theta = np.asarray(pose, dtype=float)
-        origin = np.array([x, y])
+        x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
         cfg = self.config
-        walls = self.walls[cull_segments(origin, self._bounds, cfg.max_range)]
-        ranges = cast_segments(
-            origin, theta + cfg.first_angle, cfg.increment, cfg.beams, walls, cfg.max_range
+        centres = np.ascontiguousarray(others, dtype=np.float64).reshape(-1, 2)
+        radii = np.asarray(other_radii, dtype=np.float64)
+        if radii.shape != (len(centres),):
+            radii = np.ascontiguousarray(np.broadcast_to(radii, (len(centres),)))
+        return cast_scan(
+            x,
+            y,
+            theta + cfg.first_angle,
+            cfg.increment,
+            cfg.beams,
+            self._flat_walls,
+            centres,
+            radii,
+            cfg.max_range,
         )
-        centres = np.asarray(others, dtype=float).reshape(-1, 2)
-        if len(centres):
-            radii = np.broadcast_to(np.asarray(other_radii, dtype=float), (len(centres),))
-            directions = beam_directions(theta + self._angles)
-            np.minimum(
-                ranges, cast_circles(origin, directions, centres, radii, cfg.max_range), out=ranges
-            )
-        return ranges
 
     def scan(
         self,
@@ -188,9 +186,9 @@ class Lidar:
         """
         cfg = self.config
         ranges = self.true_ranges(pose, others=others, other_radii=other_radii)
-        noise = rng.normal(0.0, 1.0, cfg.beams) * cfg.range_noise_std
-        dropped = rng.random(cfg.beams) < cfg.dropout_probability
-        hit = np.isfinite(ranges)
-        ranges[hit] = np.clip(ranges[hit] + noise[hit], 0.0, cfg.max_range)
-        ranges[dropped] = np.nan
+        normals = rng.normal(0.0, 1.0, cfg.beams)
+        uniforms = rng.random(cfg.beams)
+        add_noise(
+            ranges, normals, uniforms, cfg.range_noise_std, cfg.dropout_probability, cfg.max_range
+        )
         return Scan(self._angles, ranges, cfg.max_range)

@@ -15,7 +15,13 @@ Inverse sensor model (per scan, vectorised over all beams):
 Counting a cell once per scan keeps the cells near the robot, which many
 beams cross, from being over-weighted. Cells never observed stay unknown.
 Exported grids use the ROS coding of :mod:`merging.grid`:
-``round(100 / (1 + exp(-l)))`` for observed cells, ``-1`` for the rest.
+``round(100 / (1 + exp(-l)))`` for observed cells, ``-1`` for the rest
+(:func:`ros_codes`).
+
+:func:`integrate_rays` and :func:`ros_codes` state the model in numpy; a
+:class:`LogOddsMap` applies it with the compiled kernel
+:func:`tomosim.kernels.logodds.integrate_scan`, which the tests check against
+them, and keeps its ROS-coded grid up to date cell by cell.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
+from tomosim.kernels.logodds import beam_ends, code_thresholds, integrate_scan
 from tomosim.lidar import Scan
 
 HIT_DEPTH_CELLS = 0.5
@@ -37,6 +44,10 @@ well under half a cell rarely changes that."""
 SAMPLE_STEP_CELLS = 1.0
 """Cells between samples along a beam: one sample per cell crossed straight;
 a diagonal crossing may skip a corner cell, which neighbouring beams fill."""
+
+CODE_THRESHOLDS = code_thresholds()
+"""Log-odds at which the ROS code of a cell steps up
+(:func:`~tomosim.kernels.logodds.code_thresholds`)."""
 
 
 @dataclass(frozen=True)
@@ -160,6 +171,15 @@ def integrate_rays(
     seen[hit_index] = True
 
 
+def ros_codes(logodds: NDArray[np.float32], observed: NDArray[np.bool_]) -> NDArray[np.int8]:
+    """The ROS coding of a log-odds grid: ``round(100 / (1 + exp(-l)))`` where observed
+    (computed in double precision, halves rounded up), ``-1`` elsewhere."""
+    percent = 100.0 / (1.0 + np.exp(-logodds.astype(np.float64))) + 0.5
+    codes = np.floor(percent).astype(np.int8)
+    codes[~observed] = UNKNOWN
+    return codes
+
+
 class LogOddsMap:
     """A log-odds occupancy grid in one robot's frame that grows as needed.
 
@@ -177,9 +197,23 @@ class LogOddsMap:
     origin : (float, float)
         Map-frame coordinates (metres) of the outer corner of cell ``(0, 0)``;
         always a whole number of cells from the frame's origin.
+    journal : list of (K, 2) int64 ndarray or None
+        When a list (see :meth:`start_journal`), every update appends the
+        lattice cells ``(a, b)`` it observed for the first time (cell
+        ``(row, col)`` is lattice cell ``(col + a0, row + b0)``, ``(a0, b0)``
+        the lattice index of cell ``(0, 0)``: ``origin / resolution``).
     """
 
-    __slots__ = ("_cells", "_stale", "config", "logodds", "observed", "origin")
+    __slots__ = (
+        "_cells",
+        "_scans",
+        "_stamps",
+        "config",
+        "journal",
+        "logodds",
+        "observed",
+        "origin",
+    )
 
     def __init__(self, config: MappingConfig | None = None) -> None:
         self.config = config if config is not None else MappingConfig()
@@ -188,15 +222,45 @@ class LogOddsMap:
         self.observed = np.zeros((side, side), dtype=bool)
         corner = -(side // 2) * self.config.resolution
         self.origin = (corner, corner)
-        # ROS-coded copy of the map, brought up to date on export over the
-        # cell box ``_stale`` = (row0, row1, col0, col1) that updates touched.
+        # The ROS-coded grid, recoded cell by cell as scans change cells, and per
+        # cell the number of the last scan that passed it (the kernel's stamps).
         self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
-        self._stale: tuple[int, int, int, int] | None = None
+        self._stamps = np.zeros((side, side), dtype=np.int32)
+        self._scans = 0
+        self.journal: list[NDArray[np.int64]] | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
         """``(rows, cols)`` currently allocated."""
         return (int(self.logodds.shape[0]), int(self.logodds.shape[1]))
+
+    @property
+    def anchor(self) -> tuple[int, int]:
+        """Lattice index ``(a0, b0)`` of cell ``(0, 0)`` (``origin`` in whole cells)."""
+        res = self.config.resolution
+        return round(self.origin[0] / res), round(self.origin[1] / res)
+
+    @property
+    def cells(self) -> NDArray[np.int8]:
+        """The ROS-coded grid as it is now: a read-only view that later updates change
+        (:meth:`to_occupancy_grid` gives a copy)."""
+        view = self._cells.view()
+        view.flags.writeable = False
+        return view
+
+    def start_journal(self) -> None:
+        """Record from now on the cells each update observes first (``journal``)."""
+        self.journal = []
+
+    def take_journal(self) -> NDArray[np.int64]:
+        """``(K, 2)`` lattice cells ``(a, b)`` first observed since the last call, emptied."""
+        if self.journal is None:
+            raise RuntimeError("the journal is off; call start_journal() first")
+        entries = self.journal
+        self.journal = []
+        if not entries:
+            return np.zeros((0, 2), dtype=np.int64)
+        return entries[0] if len(entries) == 1 else np.concatenate(entries)
 
     def to_cells(self, points: ArrayLike) -> NDArray[np.float64]:
         """``(N, 2)`` map-frame metres to cell coordinates (centres at integers)."""
@@ -210,65 +274,72 @@ class LogOddsMap:
         too small, in whole cells, and keeps every existing cell's place.
         """
         res = self.config.resolution
-        pad = self.config.growth_padding
         rows, cols = self.shape
-        cell_low = np.floor((np.asarray(low, dtype=float) - self.origin) / res).astype(int)
-        cell_high = np.floor((np.asarray(high, dtype=float) - self.origin) / res).astype(int)
-        extra = math.ceil(pad / res)
-        grow_before = np.where(cell_low < 0, -cell_low + extra, 0)
-        limit = np.array([cols - 1, rows - 1])
-        grow_after = np.where(cell_high > limit, cell_high - limit + extra, 0)
-        if not (np.any(grow_before) or np.any(grow_after)):
+        (lx, ly), (hx, hy) = (tuple(float(v) for v in np.ravel(p)) for p in (low, high))
+        ox, oy = self.origin
+        cell_low = (math.floor((lx - ox) / res), math.floor((ly - oy) / res))
+        cell_high = (math.floor((hx - ox) / res), math.floor((hy - oy) / res))
+        if min(cell_low) >= 0 and cell_high[0] <= cols - 1 and cell_high[1] <= rows - 1:
             return
-        (left, bottom), (right, top) = grow_before.tolist(), grow_after.tolist()
+        extra = math.ceil(self.config.growth_padding / res)
+        left, bottom = (-c + extra if c < 0 else 0 for c in cell_low)
+        right = cell_high[0] - (cols - 1) + extra if cell_high[0] > cols - 1 else 0
+        top = cell_high[1] - (rows - 1) + extra if cell_high[1] > rows - 1 else 0
         widths = ((bottom, top), (left, right))
         self.logodds = np.pad(self.logodds, widths)
         self.observed = np.pad(self.observed, widths)
         self._cells = np.pad(self._cells, widths, constant_values=UNKNOWN)
-        self.origin = (self.origin[0] - left * res, self.origin[1] - bottom * res)
-        if self._stale is not None:
-            r0, r1, c0, c1 = self._stale
-            self._stale = (r0 + bottom, r1 + bottom, c0 + left, c1 + left)
+        self._stamps = np.pad(self._stamps, widths)
+        self.origin = (ox - left * res, oy - bottom * res)
 
     def update(self, pose: ArrayLike, scan: Scan) -> None:
         """Integrate ``scan`` taken at ``pose = (x, y, theta)`` (map frame, metres, radians)."""
         x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
-        if not all(math.isfinite(v) for v in (x, y, theta)):
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             raise ValueError(f"pose must be finite, got {(x, y, theta)}")
-        ranges = scan.ranges
-        hit = np.isfinite(ranges)
-        use = hit | (np.isinf(ranges) if self.config.carve_no_return else False)
-        if not np.any(use):
-            return
-        length = np.where(hit, ranges, scan.max_range)[use]
-        bearing = theta + scan.angles[use]
-        ends = np.column_stack([x + length * np.cos(bearing), y + length * np.sin(bearing)])
-        # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
-        room = self.config.resolution
-        self.ensure_contains(
-            np.minimum(ends.min(axis=0), (x, y)) - room, np.maximum(ends.max(axis=0), (x, y)) + room
+        cfg = self.config
+        ends, hit, box = beam_ends(
+            x, y, theta, scan.angles, scan.ranges, scan.max_range, cfg.carve_no_return
         )
-        origin = self.to_cells([[x, y]])[0]
-        cells = self.to_cells(ends)
-        integrate_rays(
+        if len(ends) == 0:
+            return
+        # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
+        room = cfg.resolution
+        xmin, ymin, xmax, ymax = box.tolist()
+        ox, oy = self.origin
+        rows, cols = self.logodds.shape
+        if not (
+            xmin - room >= ox
+            and ymin - room >= oy
+            and xmax + room < ox + cols * room
+            and ymax + room < oy + rows * room
+        ):  # the quick test; ensure_contains applies the exact one (the scan needs half the room)
+            self.ensure_contains((xmin - room, ymin - room), (xmax + room, ymax + room))
+            ox, oy = self.origin
+        cells = (ends - (ox, oy)) / cfg.resolution - 0.5
+        self._scans += 1
+        fresh = integrate_scan(
             self.logodds,
             self.observed,
-            (float(origin[0]), float(origin[1])),
+            self._cells,
+            self._stamps,
+            self._scans,
+            (x - ox) / cfg.resolution - 0.5,
+            (y - oy) / cfg.resolution - 0.5,
             cells,
-            hit[use],
-            self.config,
+            hit,
+            cfg.log_odds_hit,
+            cfg.log_odds_miss,
+            cfg.log_odds_min,
+            cfg.log_odds_max,
+            SAMPLE_STEP_CELLS,
+            HIT_DEPTH_CELLS,
+            CODE_THRESHOLDS,
         )
-        low = np.floor(np.minimum(cells.min(axis=0), origin)).astype(int)
-        high = np.ceil(np.maximum(cells.max(axis=0), origin)).astype(int) + 1
-        box = (int(low[1]), int(high[1]), int(low[0]), int(high[0]))
-        if self._stale is not None:
-            box = (
-                min(box[0], self._stale[0]),
-                max(box[1], self._stale[1]),
-                min(box[2], self._stale[2]),
-                max(box[3], self._stale[3]),
-            )
-        self._stale = box
+        if self.journal is not None and len(fresh):
+            a0, b0 = self.anchor
+            cols = self.shape[1]
+            self.journal.append(np.column_stack([fresh % cols + a0, fresh // cols + b0]))
 
     def probability(self) -> NDArray[np.float64]:
         """``(rows, cols)`` occupancy probability, ``nan`` where never observed."""
@@ -277,22 +348,11 @@ class LogOddsMap:
         return prob
 
     def to_occupancy_grid(self) -> OccupancyGrid:
-        """The map as an :class:`~merging.grid.OccupancyGrid` in the robot's frame.
+        """The map as an :class:`~merging.grid.OccupancyGrid` in the robot's frame (a copy).
 
         Cell ``(0, 0)``'s corner is at ``origin`` (yaw 0): the frame is the
-        robot's odometry frame, whose origin is its start pose. Only the cells
-        changed since the last export are converted again.
+        robot's odometry frame, whose origin is its start pose.
         """
-        if self._stale is not None:
-            r0, r1, c0, c1 = self._stale
-            rows, cols = self.shape
-            window = (slice(max(r0, 0), min(r1, rows)), slice(max(c0, 0), min(c1, cols)))
-            percent = np.float32(100.0) / (np.float32(1.0) + np.exp(-self.logodds[window]))
-            percent += np.float32(0.5)
-            cells = percent.astype(np.int8)
-            np.putmask(cells, ~self.observed[window], np.int8(UNKNOWN))
-            self._cells[window] = cells
-            self._stale = None
         return OccupancyGrid(
             self._cells.copy(),
             resolution=self.config.resolution,

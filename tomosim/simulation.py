@@ -99,6 +99,8 @@ class Simulation:
 
     __slots__ = (
         "_lidar_rngs",
+        "_other_radii",
+        "_others",
         "_true",
         "config",
         "lidar",
@@ -152,6 +154,9 @@ class Simulation:
             Odometry(self.config.odometry, pose, streams[2 * i]) for i, pose in enumerate(start)
         ]
         self._lidar_rngs = streams[1::2]
+        everyone = np.arange(len(start))
+        self._others = [np.delete(everyone, index) for index in everyone]  # who robot k sees
+        self._other_radii = np.full(len(start) - 1, self.config.physics.robot_radius)
         self.maps = [LogOddsMap(self.config.mapping) for _ in range(len(start))]
         self.steps = 0
         self._true = self.physics.poses()
@@ -210,13 +215,13 @@ class Simulation:
 
     def _sense(self) -> None:
         """Scan from every true pose and map at every odometry pose."""
-        radius = self.config.physics.robot_radius
         centres = self._true[:, :2]
+        radii = self._other_radii
         scans = []
         for index in range(self.count):
-            others = np.delete(centres, index, axis=0)
+            others = centres[self._others[index]]
             scan = self.lidar.scan(
-                self._true[index], rng=self._lidar_rngs[index], others=others, other_radii=radius
+                self._true[index], rng=self._lidar_rngs[index], others=others, other_radii=radii
             )
             self.maps[index].update(self.odometry[index].pose, scan)
             scans.append(scan)

@@ -157,9 +157,11 @@ def test_merge_infos_carry_truth_errors_and_unused_merges_change_nothing() -> No
     assert info["merged_now"] and info["merge"]["step"] == 5
     pair = info["merge"]["pairs"]["robot_0-robot_1"]
     assert info["merge"]["merged_robots"] == ["robot_0"]  # nothing linked yet
-    for key in ("rotation_error_deg", "translation_error_m", "matching_index", "confidence"):
+    for key in ("rotation_error_deg", "translation_error_m", "confidence"):
         assert isinstance(pair[key], float)
     assert isinstance(pair["accepted"], bool) and len(pair["truth"]) == 3
+    # The first round's search runs until the next round: nothing accepted, nothing scored.
+    assert not pair["accepted"] and pair["matching_index"] is None
     # The first round can confirm nothing, so nobody sees a teammate's map yet.
     assert not pair["confirmed"] and info["teammates"] == []
 

@@ -217,21 +217,22 @@ def test_crop_is_centred_and_pools_by_maximum() -> None:
     assert np.count_nonzero(wide >= 0) == 2
 
 
-def test_team_coverage_matches_the_evaluation_rule(world: World) -> None:
+@pytest.mark.parametrize("incremental", [True, False])
+def test_team_coverage_matches_the_evaluation_rule(world: World, incremental: bool) -> None:
     sim = Simulation(world, robots=2, rng=11)
-    cover = TeamCoverage(
-        world,
-        sim.start_poses,
-        resolution=sim.config.mapping.resolution,
-        reach=sim.config.lidar.max_range,
-    )
-    total_area = 0.0
-    previous = 0.0
+    cover = TeamCoverage(world, sim.start_poses, resolution=sim.config.mapping.resolution)
+    previous = float(cover.update([sim.grid(k) for k in range(2)]).sum())
+    for grid_map in sim.maps:
+        grid_map.start_journal()
+    total_area = previous
     commands = np.array([[0.8, 0.3], [0.6, -0.4]])
     for _ in range(25):
         sim.step(commands)
-        grids = [sim.grid(k) for k in range(2)]
-        gained = cover.update(grids, sim.odometry_poses[:, :2])
+        journals = [grid_map.take_journal() for grid_map in sim.maps]
+        if incremental:
+            gained = cover.reveal(journals)
+        else:
+            gained = cover.update([sim.grid(k) for k in range(2)])
         total_area += float(gained.sum())
         area = cover.fraction * cover.total * cover.cell_area
         assert float(gained.sum()) == pytest.approx(area - previous, abs=1e-9)

@@ -71,7 +71,7 @@ def timeline(run: RecordedRun) -> list[dict[str, Any]]:
                 "accepted": accepted > 0,
                 "confirmed": (run.pair(name, "confirmed").at(step) or 0.0) > 0,
                 "confidence": run.pair(name, "confidence").at(step),
-                "matching_index": run.pair(name, "matching_index").at(step),
+                "matching_index": _number(run.pair(name, "matching_index").at(step)),
             }
             if entry["accepted"]:
                 entry["rotation_error_deg"] = _number(run.pair(name, "rotation_error_deg").at(step))

@@ -10,14 +10,15 @@ robot's true start pose, falls on a known cell of its grid (the rule of
 some robot knows it. Coverage only grows: an observed cell never becomes
 unknown again.
 
-A step can only reveal cells within the lidar's reach of where the robot's
-map puts it, so each robot's not-yet-known cells are kept in square buckets
-of its map frame and a step looks only at the buckets within reach, and only
-at those whose square of the grid gained known cells since they were last
-looked at (known cells never become unknown, so an unchanged count means no
-change). The cells
-the team knows for the first time at a step are credited to the robots that
-newly know them, shared equally when several do at the same step.
+A robot's counted truth cells are indexed by the lattice cell of its map
+frame they fall in (:mod:`tomosim.team.sharing` defines the lattice), so that
+a map cell observed for the first time reveals exactly the truth cells under
+it (:func:`tomosim.kernels.coverage.reveal_cells`): a step costs in
+proportion to the cells it observed first, which :class:`~tomosim.mapping.LogOddsMap`
+journals, not to the size of the grids. :meth:`TeamCoverage.update` takes
+whole grids instead (any grids, at any time; it looks at every known cell).
+The cells the team knows for the first time at a step are credited to the
+robots that newly know them, shared equally when several do at the same step.
 """
 
 from __future__ import annotations
@@ -30,73 +31,39 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 from tomosim.frames import pose_matrix
+from tomosim.kernels.coverage import reveal_cells
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
 
-BUCKET_CELLS = 64
-"""Side of a bucket of pending cells, in map cells (3.2 m at 0.05 m): a few dozen
-buckets cover a lidar's reach, each holding few enough cells to check at once."""
-REACH_MARGIN_CELLS = 3
-"""Map cells beyond the lidar range that a scan may still mark (the hit cell's
-depth and rounding of the ray ends)."""
 
+class _Lookup:
+    """One robot's counted truth cells, keyed by their lattice cell in its map frame."""
 
-class _Pending:
-    """One robot's not-yet-known truth cells, bucketed by their lattice cell in its frame."""
-
-    __slots__ = ("buckets", "counts", "lattice", "remaining")
+    __slots__ = ("count", "keys", "known", "members", "origin", "width")
 
     def __init__(self, lattice: NDArray[np.int64]) -> None:
-        self.lattice = lattice
-        keys = np.floor_divide(lattice, BUCKET_CELLS)
-        order = np.lexsort((keys[:, 1], keys[:, 0]))
-        ordered = keys[order]
-        change = np.flatnonzero(np.any(np.diff(ordered, axis=0) != 0, axis=1)) + 1
-        self.buckets: dict[tuple[int, int], NDArray[np.intp]] = {}
-        for part in np.split(order, change):
-            if len(part):
-                key = keys[part[0]]
-                self.buckets[(int(key[0]), int(key[1]))] = part
-        self.counts: dict[tuple[int, int], int] = {}
-        self.remaining = len(lattice)
+        low = lattice.min(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
+        high = lattice.max(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
+        self.origin = (int(low[0]), int(low[1]))
+        self.width = int(high[0] - low[0]) + 1
+        keys = (lattice[:, 1] - low[1]) * self.width + (lattice[:, 0] - low[0])
+        self.members = np.argsort(keys, kind="stable").astype(np.int64)
+        self.keys = np.ascontiguousarray(keys[self.members], dtype=np.int64)
+        self.known = np.zeros(len(lattice), dtype=bool)
+        self.count = 0
 
-    def reveal(
-        self, grid: OccupancyGrid, position: NDArray[np.float64], reach: float
-    ) -> NDArray[np.intp]:
-        """Drop and return the pending cells ``grid`` knows, looking within ``reach`` metres."""
-        res = grid.resolution
-        a0, b0 = grid_anchor(grid)
-        rows, cols = grid.shape
-        low = np.floor((position - reach) / res).astype(int) // BUCKET_CELLS
-        high = np.floor((position + reach) / res).astype(int) // BUCKET_CELLS
-        found = []
-        for bx in range(int(low[0]), int(high[0]) + 1):
-            for by in range(int(low[1]), int(high[1]) + 1):
-                cells = self.buckets.get((bx, by))
-                if cells is None:
-                    continue
-                r0, c0 = by * BUCKET_CELLS - b0, bx * BUCKET_CELLS - a0
-                block = grid.data[
-                    max(r0, 0) : max(r0 + BUCKET_CELLS, 0), max(c0, 0) : max(c0 + BUCKET_CELLS, 0)
-                ]
-                count = int(np.count_nonzero(block >= 0))
-                if self.counts.get((bx, by)) == count:
-                    continue
-                self.counts[(bx, by)] = count
-                lattice = self.lattice[cells]
-                c, r = lattice[:, 0] - a0, lattice[:, 1] - b0
-                inside = (c >= 0) & (c < cols) & (r >= 0) & (r < rows)
-                seen = np.zeros(len(cells), dtype=bool)
-                seen[inside] = grid.data[r[inside], c[inside]] >= 0
-                if np.any(seen):
-                    found.append(cells[seen])
-                    left = cells[~seen]
-                    if len(left):
-                        self.buckets[(bx, by)] = left
-                    else:
-                        del self.buckets[(bx, by)]
-        newly = np.concatenate(found) if found else np.zeros(0, dtype=np.intp)
-        self.remaining -= len(newly)
+    def reveal(self, cells: NDArray[np.int64]) -> NDArray[np.int64]:
+        """Mark and return the truth cells under the lattice ``cells`` ``(K, 2)`` not yet known."""
+        newly = reveal_cells(
+            np.ascontiguousarray(cells, dtype=np.int64),
+            self.origin[0],
+            self.origin[1],
+            self.width,
+            self.keys,
+            self.members,
+            self.known,
+        )
+        self.count += len(newly)
         return newly
 
 
@@ -111,9 +78,6 @@ class TeamCoverage:
         True start poses; they place each robot's map frame in the world.
     resolution : float
         Cell size of the robots' grids, metres.
-    reach : float
-        Metres from a robot's estimated position within which one step can
-        reveal cells (its lidar's range).
 
     Attributes
     ----------
@@ -127,29 +91,24 @@ class TeamCoverage:
         Which counted cells (in ``np.nonzero(region)`` order) the team knows.
     """
 
-    __slots__ = ("_pending", "_reach", "cell_area", "region", "team_known", "total")
+    __slots__ = ("_robots", "cell_area", "region", "team_known", "total")
 
-    def __init__(
-        self, world: World, start_poses: ArrayLike, *, resolution: float, reach: float
-    ) -> None:
+    def __init__(self, world: World, start_poses: ArrayLike, *, resolution: float) -> None:
         starts = np.asarray(start_poses, dtype=float)
         if starts.ndim != 2 or starts.shape[1] != 3:
             raise ValueError(f"start_poses must have shape (N, 3), got {starts.shape}")
         if not (math.isfinite(resolution) and resolution > 0):
             raise ValueError(f"resolution must be a positive number of metres, got {resolution}")
-        if not (math.isfinite(reach) and reach > 0):
-            raise ValueError(f"reach must be a positive number of metres, got {reach}")
         self.region = world.explorable
         self.cell_area = world.resolution**2
         rows, cols = np.nonzero(self.region)
         self.total = len(rows)
         points = world.truth.cell_to_world(np.column_stack([cols, rows]))
-        self._pending: list[_Pending] = []
+        self._robots: list[_Lookup] = []
         for start in starts:
             frame = np.linalg.inv(pose_matrix(start))
             local = points @ frame[:2, :2].T + frame[:2, 2]
-            self._pending.append(_Pending(np.floor(local / resolution).astype(np.int64)))
-        self._reach = reach + REACH_MARGIN_CELLS * resolution
+            self._robots.append(_Lookup(np.floor(local / resolution).astype(np.int64)))
         self.team_known = np.zeros(self.total, dtype=bool)
 
     @property
@@ -159,18 +118,40 @@ class TeamCoverage:
 
     def robot_fraction(self, robot: int) -> float:
         """Fraction of the counted free cells robot ``robot`` knows."""
-        return 1.0 - self._pending[robot].remaining / self.total if self.total else 0.0
+        return self._robots[robot].count / self.total if self.total else 0.0
 
-    def update(self, grids: Sequence[OccupancyGrid], positions: ArrayLike) -> NDArray[np.float64]:
-        """Take in the robots' grids after a step; returns the square metres each discovered.
+    def update(self, grids: Sequence[OccupancyGrid]) -> NDArray[np.float64]:
+        """Take in the robots' whole grids; returns the square metres each discovered.
 
         Parameters
         ----------
         grids : sequence of OccupancyGrid
-            Each robot's grid in its map frame.
-        positions : (N, 2) array_like
-            Each robot's estimated position in its map frame, where its last
-            scan was mapped from.
+            Each robot's grid in its map frame (on its lattice, as a
+            :class:`~tomosim.mapping.LogOddsMap` exports it).
+
+        Returns
+        -------
+        (N,) float ndarray
+            As :meth:`reveal`.
+        """
+        if len(grids) != len(self._robots):
+            raise ValueError(f"expected {len(self._robots)} grids, got {len(grids)}")
+        cells = []
+        for grid in grids:
+            a0, b0 = grid_anchor(grid)
+            rows, cols = np.nonzero(grid.data >= 0)
+            cells.append(np.column_stack([cols + a0, rows + b0]).astype(np.int64))
+        return self.reveal(cells)
+
+    def reveal(self, cells: Sequence[ArrayLike]) -> NDArray[np.float64]:
+        """Take in the map cells each robot observed for the first time since the last call.
+
+        Parameters
+        ----------
+        cells : sequence of (K, 2) int array_like
+            Per robot, lattice cells ``(a, b)`` of its map frame
+            (:meth:`tomosim.mapping.LogOddsMap.take_journal`); cells it knew
+            before may be repeated.
 
         Returns
         -------
@@ -179,22 +160,19 @@ class TeamCoverage:
             the first time, credited as in the module docstring; the entries
             sum to the growth of the team's known area.
         """
-        where = np.asarray(positions, dtype=float)
-        if len(grids) != len(self._pending) or where.shape != (len(self._pending), 2):
-            raise ValueError(
-                f"expected {len(self._pending)} grids and positions of shape "
-                f"({len(self._pending)}, 2), got {len(grids)} and {where.shape}"
-            )
+        if len(cells) != len(self._robots):
+            raise ValueError(f"expected cells of {len(self._robots)} robots, got {len(cells)}")
         fresh = []
-        for pending, grid, position in zip(self._pending, grids, where, strict=True):
-            newly = pending.reveal(grid, position, self._reach)
+        for lookup, observed in zip(self._robots, cells, strict=True):
+            lattice = np.asarray(observed, dtype=np.int64).reshape(-1, 2)
+            newly = lookup.reveal(lattice)
             fresh.append(newly[~self.team_known[newly]])
         finders = np.zeros(self.total, dtype=np.int32)
-        for cells in fresh:
-            finders[cells] += 1
-        credit = np.array([float(np.sum(1.0 / finders[cells])) for cells in fresh])
-        for cells in fresh:
-            self.team_known[cells] = True
+        for found in fresh:
+            finders[found] += 1
+        credit = np.array([float(np.sum(1.0 / finders[found])) for found in fresh])
+        for found in fresh:
+            self.team_known[found] = True
         return credit * self.cell_area
 
     def known_mask(self) -> NDArray[np.bool_]:

@@ -12,8 +12,8 @@ runner drive. One :meth:`TeamSession.step`
    (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone, over the
    pairs that can talk), adopts its links, and scores it against the truth
    (:func:`~tomosim.team.quality.score_round`);
-5. passes the linked teammates' grids to the robots that reach them and
-   rebuilds the teammate layers that are due (:mod:`tomosim.team.sharing`).
+5. rebuilds the teammate layers that are due, each robot taking in the grids
+   of the linked teammates it reaches (:mod:`tomosim.team.sharing`).
 
 The merging method ``"oracle"`` merges with the true start poses
 (:mod:`tomosim.team.oracle`): the session, which holds them, hands the
@@ -41,6 +41,7 @@ from tomosim.team.merger import PairEstimator, TeamMerge, TeamMerger
 from tomosim.team.oracle import ORACLE, check_team_method, oracle_estimator
 from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
+from tomosim.team.tracking import TrackingEstimator
 from tomosim.worlds.world import RngLike, World, as_generator
 
 
@@ -62,6 +63,14 @@ class TeamConfig:
         before the pair links maps (:class:`~tomosim.team.merger.TeamMerger`).
     share_interval : int
         Steps between updates of a linked robot's view of its teammates' maps.
+    tracking : bool
+        With the default (tomographic) method: track linked pairs' transforms
+        between rounds and search globally only when needed
+        (:class:`~tomosim.team.tracking.TrackingEstimator`); other methods
+        always search every pair.
+    merge_worker : bool
+        Run the tracker's global searches in a worker process (the results,
+        collected at a fixed later round, are the same either way).
     comms : CommsConfig
         Communication range (default unlimited; :mod:`tomosim.team.comms`).
     simulation : SimulationConfig
@@ -73,6 +82,8 @@ class TeamConfig:
     merge_interval: int = 50
     confirmations: int = 2
     share_interval: int = 10
+    tracking: bool = True
+    merge_worker: bool = True
     comms: CommsConfig = field(default_factory=CommsConfig)
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
 
@@ -162,12 +173,13 @@ class TeamSession:
             world,
             self.simulation.start_poses,
             resolution=self.config.simulation.mapping.resolution,
-            reach=self.config.simulation.lidar.max_range,
         )
         self.last_merge: TeamMerge | None = None
         self.last_quality: RoundQuality | None = None
         self._grids: list[OccupancyGrid] | None = None
-        self.rewards = self.coverage.update(self.grids(), self._positions())
+        self.rewards = self.coverage.update(self.grids())
+        for grid_map in self.simulation.maps:  # from now on, coverage follows what is new
+            grid_map.start_journal()
 
     @property
     def count(self) -> int:
@@ -191,10 +203,15 @@ class TeamSession:
         return self._grids
 
     def _estimator(self, rng: np.random.Generator) -> PairEstimator | None:
-        """The merger's pair estimator: the oracle's, limited to the pairs that can talk
-        (None: the merging method's own, everyone talking)."""
+        """The merger's pair estimator: the oracle's, the tracker's (the default method,
+        with tracking) or None (the method's own search every round); without a
+        communication range as it is, else asked only for the pairs that can talk."""
         method = self.config.method
-        base = oracle_estimator(self.simulation.start_poses) if method == ORACLE else None
+        base: PairEstimator | None = None
+        if method == ORACLE:
+            base = oracle_estimator(self.simulation.start_poses)
+        elif self.config.tracking and method == DEFAULT_METHOD:
+            base = TrackingEstimator(method=method, worker=self.config.merge_worker, rng=rng)
         if self.config.comms.unlimited:
             return base
 
@@ -219,26 +236,23 @@ class TeamSession:
         """Advance one step (module docstring); returns the merge round run, if any, scored."""
         self.simulation.step(commands)
         self._grids = None
-        grids = self.grids()
-        self.rewards = self.coverage.update(grids, self._positions())
+        self.rewards = self.coverage.reveal([m.take_journal() for m in self.simulation.maps])
         self.reach = self._reach_groups()
         reach = None if self.config.comms.unlimited else self.reach
         scored = None
         if self.merger is not None and self.merger.due(self.steps):
+            grids = self.grids()
             merge = self.merger.merge(self.steps, grids)
             scored = score_round(merge, grids, self.simulation.start_poses, self.world.truth)
             self.last_merge, self.last_quality = merge, scored
             self.shared.link(merge, reach=reach)
-        self.shared.refresh(self.steps, grids, reach=reach)
+        if self.shared.due(self.steps):
+            self.shared.refresh(self.steps, self.grids(), reach=reach)
         return scored
 
     def reaches(self, robot: int, other: int) -> bool:
         """Whether ``robot`` can talk to ``other`` now, directly or through relays."""
         return bool(self.reach[robot] == self.reach[other])
-
-    def _positions(self) -> NDArray[np.float64]:
-        """``(N, 2)`` estimated positions, each in its robot's map frame."""
-        return self.simulation.odometry_poses[:, :2]
 
     def contacts(self, robot: int) -> dict[int, NDArray[np.float64]]:
         """The teammates robot ``robot`` coordinates with now, each with the matrix taking
@@ -257,4 +271,7 @@ class TeamSession:
     def best_crop(self, robot: int, *, size: int, pool: int) -> NDArray[np.int8]:
         """A window of the best map around the robot's pose estimate (:meth:`SharedMaps.crop`)."""
         pose = self.simulation.odometry[robot].pose
-        return self.shared.crop(robot, self.grids(), pose[:2], size=size, pool=pool)
+        own = self.simulation.maps[robot]
+        return self.shared.crop_cells(
+            robot, own.cells, own.anchor, own.config.resolution, pose[:2], size=size, pool=pool
+        )

@@ -23,12 +23,13 @@ that is linked to nobody has its own grid as its best map.
 Limited communication
 ---------------------
 With a communication range (:mod:`tomosim.team.comms`), ``reach`` labels
-tell who can talk at a step. A robot then takes in a linked teammate's grid
-only while it reaches the teammate, and keeps the last one it received
-otherwise; and a link to a teammate it does not reach when a merge round runs
-is kept from the earlier round (that round could not see both maps, so it has
-nothing new to say about the pair). Without ``reach`` every robot reaches
-every other, and the received grids are the current ones.
+tell who can talk at a step. A robot then takes in a linked teammate's grid,
+when its layer is rebuilt, only if it reaches the teammate at that step, and
+keeps the last one it received otherwise; and a link to a teammate it does
+not reach when a merge round runs is kept from the earlier round (that round
+could not see both maps, so it has nothing new to say about the pair).
+Without ``reach`` every robot reaches every other, and the received grids are
+the current ones.
 
 Cell lattice
 ------------
@@ -50,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
 from merging.warp import warp_cells
+from tomosim.kernels.crop import crop_max_pool
 from tomosim.team.merger import TeamMerge
 
 ANCHOR_TOLERANCE = 1e-6
@@ -57,6 +59,8 @@ ANCHOR_TOLERANCE = 1e-6
 (origins are sums of whole cells in metres, so only rounding separates them)."""
 
 
+NO_LAYER = np.zeros((0, 0), dtype=np.int8)
+"""The teammate layer of a robot that has none, as the crop kernel takes it."""
 EDGE_TOLERANCE = 1e-6
 """Cells: a cell centre this close outside a carried grid's outline still counts as
 inside, so that rounding in rotation matrices cannot drop a row of the layer."""
@@ -238,24 +242,29 @@ class SharedMaps:
         frame to robot ``robot``'s (metres); a new dict each call."""
         return {other: matrix.copy() for other, matrix in self._links[robot].items()}
 
+    def due(self, step: int) -> bool:
+        """Whether :meth:`refresh` at ``step`` would rebuild some robot's layer."""
+        return any(
+            links and (last is None or step - last >= self.refresh_interval)
+            for links, last in zip(self._links, self._refreshed, strict=True)
+        )
+
     def refresh(
         self, step: int, grids: Sequence[OccupancyGrid], *, reach: ArrayLike | None = None
     ) -> None:
-        """Take in the current ``grids`` of the linked teammates each robot reaches (all,
-        without ``reach``), and rebuild the teammate layers that are due at ``step`` from
-        the grids received."""
+        """Rebuild the teammate layers that are due at ``step``: each such robot takes in the
+        current ``grids`` of the linked teammates it reaches (all, without ``reach``) and
+        builds its layer from the grids it has received."""
         labels = None if reach is None else np.asarray(reach)
         for robot in range(self.count):
             links = self._links[robot]
-            if not links:
+            last = self._refreshed[robot]
+            if not links or (last is not None and step - last < self.refresh_interval):
                 continue
             received = self._received[robot]
             for other in links:
                 if labels is None or labels[other] == labels[robot]:
                     received[other] = grids[other]
-            last = self._refreshed[robot]
-            if last is not None and step - last < self.refresh_interval:
-                continue
             others = sorted(k for k in links if k in received)
             self._layers[robot] = teammate_layer(
                 [received[k] for k in others], [links[k] for k in others], grids[robot].resolution
@@ -302,13 +311,37 @@ class SharedMaps:
         The robot's cell is output cell ``(size // 2, size // 2)``.
         """
         own = grids[robot]
-        res = own.resolution
+        return self.crop_cells(
+            robot, own.data, grid_anchor(own), own.resolution, centre, size=size, pool=pool
+        )
+
+    def crop_cells(
+        self,
+        robot: int,
+        cells: NDArray[np.int8],
+        anchor: tuple[int, int],
+        resolution: float,
+        centre: ArrayLike,
+        *,
+        size: int,
+        pool: int,
+    ) -> NDArray[np.int8]:
+        """:meth:`crop` of the robot's own cells given as an array on its lattice, its
+        cell ``(0, 0)`` at lattice ``anchor`` (no grid needed: a live map's cells will do)."""
         x, y = (float(v) for v in np.asarray(centre, dtype=float)[:2])
         fine = size * pool
-        start = (math.floor(x / res) - fine // 2, math.floor(y / res) - fine // 2)
-        cells = window(own.data, grid_anchor(own), start, (fine, fine))
+        start = (math.floor(x / resolution) - fine // 2, math.floor(y / resolution) - fine // 2)
         layer = self._layers[robot]
-        if layer is not None:
-            mates = window(layer[0], layer[1], start, (fine, fine))
-            np.copyto(cells, mates, where=cells < 0)
-        return cells.reshape(size, pool, size, pool).max(axis=(1, 3))
+        mates, mates_anchor = layer if layer is not None else (NO_LAYER, (0, 0))
+        return crop_max_pool(
+            cells,
+            anchor[0],
+            anchor[1],
+            mates,
+            mates_anchor[0],
+            mates_anchor[1],
+            start[0],
+            start[1],
+            size,
+            pool,
+        )

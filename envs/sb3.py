@@ -1,0 +1,103 @@
+"""A Stable-Baselines3 ``VecEnv`` over SuperSuit's vector env of the robots.
+
+SuperSuit's own ``concat_vec_envs_v1(..., base_class="stable_baselines3")``
+has three gaps this adapter closes (each pinned by a test):
+
+1. seeding: ``PPO(..., seed=0)`` calls ``VecEnv.seed``, which SuperSuit
+   forwards to its ``ConcatVecEnv``, which has none (``'ConcatVecEnv' object
+   has no attribute 'seed'``); here ``seed(s)`` is kept for the next
+   ``reset``, which passes it on (environment ``e`` gets ``s + e``);
+2. truncation: it reports ``done`` for a ``max_cycles`` cut-off without
+   ``TimeLimit.truncated``, so PPO takes the cut-off for a true end and does
+   not bootstrap from the final observation; here every truncated, not
+   terminated, entry is marked;
+3. final infos: its auto-reset merges the reset's infos into the final
+   step's, so keys such as ``team_coverage`` belong to the next episode; the
+   environment's ``episode`` info, which no reset writes, survives, and here
+   each finished entry also gets ``final_info``, the final step's figures
+   (``episode`` without the per-agent ``returns``).
+
+Importing this module needs Stable-Baselines3 (the ``rl`` extra).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from stable_baselines3.common.vec_env import VecEnv
+
+
+class SB3VectorEnv(VecEnv):
+    """Stable-Baselines3's ``VecEnv`` interface over a Gymnasium vector env of robots.
+
+    Parameters
+    ----------
+    venv : gymnasium.vector.VectorEnv
+        From :func:`envs.vector.make_supersuit_vector_env`.
+    """
+
+    def __init__(self, venv: Any) -> None:
+        self.venv = venv
+        self.render_mode = venv.render_mode  # read by VecEnv's constructor
+        super().__init__(venv.num_envs, venv.observation_space, venv.action_space)
+        self._actions: NDArray[Any] | None = None
+
+    def reset(self) -> Any:
+        """Reset every environment; with the seed of the last :meth:`seed` call, if any."""
+        seed = self._seeds[0]
+        observations, infos = self.venv.reset(seed=seed)
+        self.reset_infos = list(infos)
+        self._reset_seeds()
+        return observations
+
+    def step_async(self, actions: NDArray[Any]) -> None:
+        """Keep the actions for :meth:`step_wait`."""
+        self._actions = actions
+
+    def step_wait(self) -> tuple[Any, NDArray[np.float32], NDArray[np.bool_], list[dict[str, Any]]]:
+        """Step all environments; marks truncation and keeps the final infos (module docstring)."""
+        assert self._actions is not None  # step_async came first
+        observations, rewards, terminations, truncations, infos = self.venv.step(self._actions)
+        terminated = np.asarray(terminations, dtype=bool)
+        truncated = np.asarray(truncations, dtype=bool)
+        infos = [dict(info) for info in infos]
+        for index, info in enumerate(infos):
+            if terminated[index] or truncated[index]:
+                info["TimeLimit.truncated"] = bool(truncated[index] and not terminated[index])
+                episode = info.get("episode")
+                if episode is not None:
+                    info["final_info"] = {k: v for k, v in episode.items() if k != "returns"}
+        return observations, np.asarray(rewards, dtype=np.float32), terminated | truncated, infos
+
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
+        """Seed the next :meth:`reset`: environment ``e`` gets ``seed + e``."""
+        if seed is None:
+            return [None] * self.num_envs
+        self._seeds = [seed + index for index in range(self.num_envs)]
+        return self._seeds
+
+    def close(self) -> None:
+        """Close the vector env and its processes."""
+        self.venv.close()
+
+    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+        """The attribute from this adapter for every entry (the environments live behind
+        SuperSuit, which does not expose theirs)."""
+        return [getattr(self, attr_name)] * len(list(self._get_indices(indices)))
+
+    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        """Not supported: the environments live behind SuperSuit."""
+        raise NotImplementedError("set_attr is not supported through SuperSuit's vector env")
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any
+    ) -> list[Any]:
+        """Not supported: the environments live behind SuperSuit."""
+        raise NotImplementedError("env_method is not supported through SuperSuit's vector env")
+
+    def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
+        """No entry is wrapped in a Gymnasium wrapper (they are robots, not envs)."""
+        return [False] * len(list(self._get_indices(indices)))

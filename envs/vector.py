@@ -1,0 +1,95 @@
+"""Many exploration environments at once: SuperSuit's vector envs and Gymnasium's.
+
+Two ways to step ``K`` environments together:
+
+* **one agent per robot** (a shared policy, the usual multi-agent setting):
+  :func:`make_supersuit_vector_env` turns each parallel environment into a
+  Gymnasium vector env of its ``N`` robots (SuperSuit's
+  ``pettingzoo_env_to_vec_env_v1``) and concatenates ``K`` of them
+  (``concat_vec_envs_v1``), in ``processes`` worker processes: one batch of
+  ``K * N`` observations, actions and rewards per step; an environment whose
+  episode ends is reset at once;
+* **one agent per team**: :func:`make_gymnasium_vector_env` steps ``K``
+  centralised views (:mod:`envs.centralised`) in Gymnasium's
+  ``AsyncVectorEnv``, one process each.
+
+For Stable-Baselines3, :func:`make_sb3_vector_env` wraps the first with
+:class:`envs.sb3.SB3VectorEnv`, which seeds, marks truncation and keeps the
+final step's infos (the gaps of SuperSuit's own SB3 wrapper).
+``scripts/bench_env.py --vector 1 2`` times both ways.
+
+SuperSuit and Stable-Baselines3 come with the ``rl`` extra
+(``pip install -e ".[rl]"``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+
+from envs.centralised import CentralisedExplorationEnv
+from envs.multi_robot_exploration_v0 import parallel_env
+
+RL_INSTALL = 'pip install -e ".[rl]"'
+"""The command that installs SuperSuit, Stable-Baselines3 and a CPU build of torch."""
+
+
+def _supersuit() -> Any:
+    try:
+        import supersuit
+    except ImportError as error:
+        raise ImportError(f"vector environments need SuperSuit: {RL_INSTALL}") from error
+    return supersuit
+
+
+def make_supersuit_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -> Any:
+    """``envs`` parallel environments as one Gymnasium vector env of all their robots.
+
+    Parameters
+    ----------
+    envs : int
+        Number ``K`` of environments.
+    processes : int
+        Worker processes stepping them (0 or 1: all in this process).
+    **kwargs
+        Arguments of :func:`envs.multi_robot_exploration_v0.parallel_env`.
+
+    Returns
+    -------
+    gymnasium.vector.VectorEnv
+        ``num_envs = K * N``: robot ``k`` of environment ``e`` is entry ``e * N + k``.
+        ``reset(seed=s)`` seeds environment ``e`` with ``s + e``.
+    """
+    if not (isinstance(envs, int) and envs >= 1):
+        raise ValueError(f"envs must be a whole number >= 1, got {envs!r}")
+    if not (isinstance(processes, int) and processes >= 0):
+        raise ValueError(f"processes must be a whole number >= 0, got {processes!r}")
+    supersuit = _supersuit()
+    robots = supersuit.pettingzoo_env_to_vec_env_v1(parallel_env(**kwargs))
+    return supersuit.concat_vec_envs_v1(robots, envs, num_cpus=processes, base_class="gymnasium")
+
+
+def make_sb3_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -> Any:
+    """:func:`make_supersuit_vector_env` as a Stable-Baselines3 ``VecEnv``
+    (:class:`envs.sb3.SB3VectorEnv`)."""
+    try:
+        from envs.sb3 import SB3VectorEnv
+    except ImportError as error:
+        raise ImportError(f"the SB3 adapter needs Stable-Baselines3: {RL_INSTALL}") from error
+    return SB3VectorEnv(make_supersuit_vector_env(envs, processes=processes, **kwargs))
+
+
+def _centralised(kwargs: dict[str, Any]) -> CentralisedExplorationEnv:
+    return CentralisedExplorationEnv(**kwargs)
+
+
+def make_gymnasium_vector_env(envs: int, **kwargs: Any) -> gymnasium.vector.AsyncVectorEnv:
+    """``envs`` centralised views (one agent drives a team) in ``envs`` processes.
+
+    ``reset(seed=s)`` seeds view ``e`` with ``s + e``; an ended episode is
+    reset at the next step (Gymnasium's default autoreset).
+    """
+    if not (isinstance(envs, int) and envs >= 1):
+        raise ValueError(f"envs must be a whole number >= 1, got {envs!r}")
+    return gymnasium.vector.AsyncVectorEnv([lambda: _centralised(kwargs) for _ in range(envs)])

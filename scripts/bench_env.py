@@ -1,0 +1,201 @@
+"""Benchmark the exploration environment: robot-steps per second under random actions.
+
+A robot-step is one robot advanced by one ``env.step``: its share of the
+physics, its lidar scan and map update, the team coverage and reward, its
+observation (scan, map window, pose) and its share of the merge rounds
+(every ``merge_interval`` steps, all pairs) and of the teammate-map refreshes.
+This is what a learner pays per agent-step, unlike ``scripts/bench_simulation.py``,
+which times the simulator alone.
+
+Three tables:
+
+1. one ``parallel_env()`` with its defaults (3 robots, 360 beams, merging every
+   50 steps) and with 8 robots, under uniformly random actions; each
+   configuration is run ``--repeats`` times from a fresh ``reset(seed=r)``
+   for ``--steps`` timed steps (episodes that end are reset and continue);
+2. ``K`` environments stepped in lock step by SuperSuit's vector env over
+   ``K`` processes (``--vector 1 2``; needs the ``rl`` extra), total
+   robot-steps per second;
+3. the same through Gymnasium's ``AsyncVectorEnv`` of the centralised view.
+
+The tables give the median and the spread (min..max) over the repeats, of
+rates by the wall clock and, for one environment, by the process's CPU time
+(``cpu`` columns): on a machine loaded by other work the CPU-time rate is the
+steadier measure of this process's own cost. The CPU time excludes the
+worker process in which global merge searches run (``TeamConfig.merge_worker``),
+which has a core of its own on an idle machine. To compare with another
+checkout, run this script with ``PYTHONPATH=/path/to/that/checkout``.
+
+Usage::
+
+    python scripts/bench_env.py [--robots 3 8] [--steps 300] [--repeats 5]
+    python scripts/bench_env.py --vector 1 2 --steps 200 --repeats 3
+    python scripts/bench_env.py --profile 600   # cProfile of one run, top functions
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import pstats
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from envs import multi_robot_exploration_v0 as exploration
+
+WARMUP_STEPS = 20
+"""Untimed steps before each timed run (first-call and compilation costs)."""
+ACTION_SEED_OFFSET = 1000
+"""Offset between a run's reset seed and the seed of its action sampler."""
+
+
+def random_actions(env: Any, generator: np.random.Generator) -> dict[str, Any]:
+    """Uniform actions in ``[-1, 1]^2`` for every live agent."""
+    return {agent: generator.uniform(-1.0, 1.0, 2).astype(np.float32) for agent in env.agents}
+
+
+def run_steps(
+    env: Any, steps: int, generator: np.random.Generator, seed: int
+) -> tuple[float, float]:
+    """Step ``env`` ``steps`` times under random actions, resetting ended episodes;
+    returns the wall-clock and CPU seconds taken."""
+    start, cpu = time.perf_counter(), time.process_time()
+    for _ in range(steps):
+        if not env.agents:
+            seed += 1
+            env.reset(seed=seed)
+        env.step(random_actions(env, generator))
+    return time.perf_counter() - start, time.process_time() - cpu
+
+
+def bench_single(
+    robots: int, steps: int, repeats: int, **kwargs: Any
+) -> tuple[list[float], list[float]]:
+    """Robot-steps per second of ``repeats`` fresh runs of one environment, by the wall
+    clock and by CPU time."""
+    wall, cpu = [], []
+    for repeat in range(repeats):
+        env = exploration.parallel_env(robots=robots, **kwargs)
+        env.reset(seed=repeat)
+        generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
+        run_steps(env, WARMUP_STEPS, generator, repeat)
+        seconds, cpu_seconds = run_steps(env, steps, generator, repeat)
+        wall.append(robots * steps / seconds)
+        cpu.append(robots * steps / max(cpu_seconds, 1e-9))
+        env.close()
+    return wall, cpu
+
+
+def advance_vector(venv: Any, steps: int, actions: Callable[[], Any]) -> float:
+    """Step a vector env ``steps`` times under ``actions()``; returns the seconds taken."""
+    start = time.perf_counter()
+    for _ in range(steps):
+        venv.step(np.asarray(actions(), dtype=np.float32))
+    return time.perf_counter() - start
+
+
+def bench_supersuit(envs: int, robots: int, steps: int, repeats: int) -> list[float]:
+    """Robot-steps per second of ``envs`` environments in ``envs`` processes (SuperSuit)."""
+    from envs.vector import make_supersuit_vector_env
+
+    rates = []
+    for repeat in range(repeats):
+        venv = make_supersuit_vector_env(envs, processes=envs, robots=robots)
+        venv.reset(seed=repeat)
+        generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
+        count = venv.num_envs  # agents over all environments
+        advance_vector(venv, WARMUP_STEPS, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
+        seconds = advance_vector(venv, steps, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
+        rates.append(count * steps / seconds)
+        venv.close()
+    return rates
+
+
+def bench_gymnasium(envs: int, robots: int, steps: int, repeats: int) -> list[float]:
+    """Robot-steps per second of ``envs`` centralised views in Gymnasium's AsyncVectorEnv."""
+    from envs.vector import make_gymnasium_vector_env
+
+    rates = []
+    for repeat in range(repeats):
+        venv = make_gymnasium_vector_env(envs, robots=robots)
+        venv.reset(seed=repeat)
+        venv.action_space.seed(ACTION_SEED_OFFSET + repeat)
+        advance_vector(venv, WARMUP_STEPS, venv.action_space.sample)
+        seconds = advance_vector(venv, steps, venv.action_space.sample)
+        rates.append(envs * robots * steps / seconds)
+        venv.close()
+    return rates
+
+
+def row(label: str, rates: list[float], cpu: list[float] | None = None) -> str:
+    """One table row: label, median, min, max (and the same by CPU time)."""
+    text = f"{label:<28} {statistics.median(rates):>8.0f} {min(rates):>8.0f} {max(rates):>8.0f}"
+    if cpu is not None:
+        text += f" {statistics.median(cpu):>10.0f} {min(cpu):>8.0f} {max(cpu):>8.0f}"
+    return text
+
+
+def header(title: str, cpu: bool = False) -> str:
+    """A table's title and column names."""
+    names = f"{'configuration':<28} {'median':>8} {'min':>8} {'max':>8}"
+    if cpu:
+        names += f" {'cpu median':>10} {'min':>8} {'max':>8}"
+    return f"\n{title}\n{names}"
+
+
+def profile(steps: int, top: int) -> None:
+    """Print the ``top`` functions by cumulative time of one default run of ``steps`` steps."""
+    env = exploration.parallel_env()
+    env.reset(seed=0)
+    generator = np.random.default_rng(ACTION_SEED_OFFSET)
+    run_steps(env, WARMUP_STEPS, generator, 0)
+    profiler = cProfile.Profile()
+    profiler.enable()
+    run_steps(env, steps, generator, 0)
+    profiler.disable()
+    pstats.Stats(profiler).sort_stats("cumulative").print_stats(top)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", type=int, nargs="+", default=[3, 8])
+    parser.add_argument("--steps", type=int, default=300, help="timed joint steps per run")
+    parser.add_argument("--repeats", type=int, default=5, help="runs per configuration")
+    parser.add_argument(
+        "--vector",
+        type=int,
+        nargs="*",
+        default=[],
+        help="numbers K of environments to step in parallel (needs the rl extra)",
+    )
+    parser.add_argument("--no-merge", action="store_true", help="also time merging off")
+    parser.add_argument("--profile", type=int, default=0, help="profile this many steps")
+    parser.add_argument("--top", type=int, default=40, help="functions the profile lists")
+    args = parser.parse_args()
+    if args.profile:
+        profile(args.profile, args.top)
+        return
+    print(f"{args.steps} timed steps x {args.repeats} repeats, random actions, robot-steps/s")
+    print(header("one environment, parallel_env() defaults", cpu=True))
+    for robots in args.robots:
+        print(row(f"{robots} robots", *bench_single(robots, args.steps, args.repeats)), flush=True)
+        if args.no_merge:
+            rates = bench_single(robots, args.steps, args.repeats, merge=False)
+            print(row(f"{robots} robots, no merging", *rates), flush=True)
+    if args.vector:
+        print(header("K environments in K processes, SuperSuit vector env (3 robots each)"))
+        for count in args.vector:
+            rates = bench_supersuit(count, 3, args.steps, args.repeats)
+            print(row(f"K = {count}", rates), flush=True)
+        print(header("K centralised views, Gymnasium AsyncVectorEnv (3 robots each)"))
+        for count in args.vector:
+            rates = bench_gymnasium(count, 3, args.steps, args.repeats)
+            print(row(f"K = {count}", rates), flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,287 @@
+"""Train one PPO policy shared by all robots, and compare it with scripted baselines.
+
+The robots of ``--envs`` environments (``floors=TRAINING_FLOORS``: a new
+generated floor every episode; ``observation_format="normalised"``: the map
+window as a ``uint8`` image, read by a CNN) are the entries of one
+Stable-Baselines3 vector env (:func:`envs.vector.make_sb3_vector_env`), so
+one policy acts for every robot from its own observation. After training,
+the policy and three baselines run the same episodes on held-out floors
+(``HELD_OUT_FLOORS``, never drawn in training):
+
+* ``random``: uniform random actions;
+* ``best_constant``: the constant action (of a grid of forward arcs) with
+  the highest mean coverage on these very episodes, the strongest
+  observation-blind policy;
+* ``frontier``: frontier exploration on the robots' whole best maps
+  (**privileged**: it reads more than the observation).
+
+The output folder holds ``learning_curve.csv`` (one row per finished training
+episode, written as they finish), ``learning_curve.png``, ``summary.json``
+(per policy: mean episode return per robot and mean final team coverage,
+with each episode's figures) and ``model.zip``.
+
+Usage::
+
+    pip install -e ".[rl]"
+    python scripts/train_ppo.py --timesteps 200000 --out results/ppo
+    python scripts/train_ppo.py --timesteps 256 --smoke --out /tmp/ppo   # a few iterations
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from envs import multi_robot_exploration_v0 as exploration
+from envs.baselines import ConstantBaseline, FrontierBaseline, RandomBaseline
+from envs.vector import RL_INSTALL, make_sb3_vector_env
+
+EVALUATION_SEED = 10_000
+"""Evaluation episode ``e`` is ``reset(seed=EVALUATION_SEED + e)`` on held-out floors."""
+CONSTANT_ACTIONS = [(linear, angular) for linear in (0.5, 1.0) for angular in (0.0, 0.2, 0.4, 0.7)]
+"""Forward arcs tried for the best constant action (a turn's sign does not matter
+on random floors, so only left turns are tried)."""
+CURVE_WINDOW = 20
+"""Episodes in the rolling mean of the learning curve's plot."""
+
+Agents = Callable[[Any, dict[str, dict[str, Any]]], dict[str, Any]]
+"""``agents(env, observations) -> actions`` of the live agents."""
+
+
+def env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """Arguments of every environment, training and evaluation alike (floors aside)."""
+    kwargs: dict[str, Any] = {
+        "robots": args.robots,
+        "max_cycles": args.max_cycles,
+        "observation_format": "normalised",
+    }
+    if args.world_size is not None:
+        kwargs["world_size"] = tuple(args.world_size)
+    return kwargs
+
+
+def learning_callback(path: Path, robots: int) -> Any:
+    """A Stable-Baselines3 callback writing one CSV row per finished training episode."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class LearningCurve(BaseCallback):  # type: ignore[misc]  # SB3 is untyped here
+        def _on_training_start(self) -> None:
+            self.clock = time.perf_counter()
+            self.handle = path.open("w", newline="")
+            self.writer = csv.writer(self.handle)
+            self.writer.writerow(
+                ["timesteps", "seconds", "episode", "world", "mean_return", "team_coverage"]
+            )
+            self.episodes = 0
+
+        def _on_step(self) -> bool:
+            for index, info in enumerate(self.locals["infos"]):
+                episode = info.get("episode")
+                if index % robots or episode is None:  # one row per environment's episode
+                    continue
+                self.episodes += 1
+                self.writer.writerow(
+                    [
+                        self.num_timesteps,
+                        round(time.perf_counter() - self.clock, 2),
+                        self.episodes,
+                        episode["world"],
+                        float(np.mean(list(episode["returns"].values()))),
+                        episode["team_coverage"],
+                    ]
+                )
+                self.handle.flush()
+            return True
+
+        def _on_training_end(self) -> None:
+            self.handle.close()
+
+    return LearningCurve()
+
+
+def run_episode(env: Any, agents: Agents, seed: int) -> dict[str, Any]:
+    """One episode of ``agents``; its mean return per robot and final team coverage."""
+    observations, _ = env.reset(seed=seed)
+    while env.agents:
+        observations, *_ = env.step(agents(env, observations))
+    record = env.last_episode
+    return {
+        "world": record["world"],
+        "steps": record["l"],
+        "mean_return": float(np.mean(list(record["returns"].values()))),
+        "team_coverage": record["team_coverage"],
+    }
+
+
+def evaluate(agents: Agents, args: argparse.Namespace) -> dict[str, Any]:
+    """``agents`` on ``--eval-episodes`` held-out episodes (the same for every policy)."""
+    env = exploration.parallel_env(floors=exploration.HELD_OUT_FLOORS, **env_kwargs(args))
+    episodes = [run_episode(env, agents, EVALUATION_SEED + e) for e in range(args.eval_episodes)]
+    return {
+        "mean_return": float(np.mean([e["mean_return"] for e in episodes])),
+        "team_coverage": float(np.mean([e["team_coverage"] for e in episodes])),
+        "episodes": episodes,
+    }
+
+
+def model_agents(model: Any) -> Agents:
+    """The trained policy, acting deterministically for each robot from its observation."""
+
+    def act(env: Any, observations: dict[str, dict[str, Any]]) -> dict[str, Any]:
+        agents = [a for a in env.possible_agents if a in observations]
+        batch = {
+            key: np.stack([observations[a][key] for a in agents]) for key in observations[agents[0]]
+        }
+        actions, _ = model.predict(batch, deterministic=True)
+        return dict(zip(agents, actions, strict=True))
+
+    return act
+
+
+def blind(baseline: Callable[[Any], dict[str, Any]]) -> Agents:
+    """A baseline that ignores the observation, as an :data:`Agents`."""
+    return lambda env, _observations: baseline(env)
+
+
+def plot_curve(csv_path: Path, png_path: Path, summary: dict[str, Any]) -> None:
+    """Rolling mean of team coverage and return against timesteps, baselines as lines."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with csv_path.open() as handle:
+        rows = list(csv.DictReader(handle))
+    steps = np.array([float(r["timesteps"]) for r in rows])
+    figure, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for axis, key, label in (
+        (axes[0], "team_coverage", "final team coverage"),
+        (axes[1], "mean_return", "episode return per robot [m²]"),
+    ):
+        values = np.array([float(r[key]) for r in rows])
+        if len(values):
+            kernel = np.ones(min(CURVE_WINDOW, len(values))) / min(CURVE_WINDOW, len(values))
+            smooth = np.convolve(values, kernel, mode="valid")
+            axis.plot(steps, values, ".", alpha=0.25, color="tab:blue", label="training episodes")
+            axis.plot(
+                steps[len(steps) - len(smooth) :], smooth, color="tab:blue", label="rolling mean"
+            )
+        for name, colour in (
+            ("trained", "tab:blue"),
+            ("best_constant", "tab:orange"),
+            ("random", "tab:grey"),
+            ("frontier", "tab:green"),
+        ):
+            axis.axhline(
+                summary["evaluation"][name][key],
+                color=colour,
+                linestyle="--",
+                label=f"{name.replace('_', ' ')} (held-out)",
+            )
+        axis.set_xlabel("agent-steps (timesteps)")
+        axis.set_ylabel(label)
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8, loc="lower right")
+    figure.suptitle(
+        f"PPO, one policy for {summary['robots']} robots, {summary['timesteps']} timesteps "
+        f"({summary['training_seconds'] / 60:.0f} min)"
+    )
+    figure.tight_layout()
+    figure.savefig(png_path, dpi=110)
+    plt.close(figure)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--timesteps", type=int, required=True, help="agent-steps of training")
+    parser.add_argument("--out", type=Path, default=Path("results/ppo"), help="output folder")
+    parser.add_argument("--envs", type=int, default=2, help="environments stepped together")
+    parser.add_argument("--processes", type=int, default=0, help="worker processes for them")
+    parser.add_argument("--robots", type=int, default=3)
+    parser.add_argument("--max-cycles", type=int, default=300, help="steps per episode")
+    parser.add_argument("--world-size", type=float, nargs=2, default=None, metavar=("W", "H"))
+    parser.add_argument("--n-steps", type=int, default=128, help="PPO rollout steps per entry")
+    parser.add_argument("--batch-size", type=int, default=256)
+    parser.add_argument("--epochs", type=int, default=4, help="PPO epochs per rollout")
+    parser.add_argument("--eval-episodes", type=int, default=5, help="held-out episodes")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--smoke", action="store_true", help="tiny settings, for tests")
+    args = parser.parse_args()
+    if args.timesteps < 1:
+        parser.error(f"--timesteps must be at least 1, got {args.timesteps}")
+    if args.smoke:
+        args.robots, args.max_cycles, args.world_size = 2, 40, [12.0, 9.0]
+        args.n_steps, args.batch_size, args.epochs, args.eval_episodes = 32, 32, 1, 1
+    try:
+        import torch
+        from stable_baselines3 import PPO
+    except ImportError:
+        sys.exit(f"train_ppo.py needs Stable-Baselines3 and torch: {RL_INSTALL}")
+    torch.set_num_threads(1)  # the environments use the other cores
+    args.out.mkdir(parents=True, exist_ok=True)
+    venv = make_sb3_vector_env(
+        args.envs,
+        processes=args.processes,
+        floors=exploration.TRAINING_FLOORS,
+        **env_kwargs(args),
+    )
+    model = PPO(
+        "MultiInputPolicy",
+        venv,
+        n_steps=args.n_steps,
+        batch_size=args.batch_size,
+        n_epochs=args.epochs,
+        seed=args.seed,
+        device="cpu",
+        verbose=0,
+    )
+    curve = args.out / "learning_curve.csv"
+    clock = time.perf_counter()
+    model.learn(total_timesteps=args.timesteps, callback=learning_callback(curve, args.robots))
+    training_seconds = time.perf_counter() - clock
+    venv.close()
+    model.save(args.out / "model.zip")
+    evaluation = {
+        "trained": evaluate(model_agents(model), args),
+        "random": evaluate(blind(RandomBaseline(rng=args.seed)), args),
+        "frontier": {**evaluate(blind(FrontierBaseline()), args), "privileged": True},
+    }
+    constants = {
+        f"{linear:+.1f},{angular:+.1f}": evaluate(blind(ConstantBaseline((linear, angular))), args)
+        for linear, angular in CONSTANT_ACTIONS
+    }
+    best = max(constants, key=lambda name: constants[name]["team_coverage"])
+    evaluation["best_constant"] = {**constants[best], "action": [float(v) for v in best.split(",")]}
+    summary = {
+        "command": " ".join(sys.argv),
+        "timesteps": int(model.num_timesteps),
+        "training_seconds": round(training_seconds, 1),
+        "robots": args.robots,
+        "envs": args.envs,
+        "max_cycles": args.max_cycles,
+        "held_out_episodes": args.eval_episodes,
+        "evaluation": evaluation,
+        "constant_actions": {k: v["team_coverage"] for k, v in constants.items()},
+    }
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
+    plot_curve(curve, args.out / "learning_curve.png", summary)
+    print(f"trained {summary['timesteps']} timesteps in {training_seconds:.0f} s; held-out floors:")
+    for name in ("trained", "best_constant", "random", "frontier"):
+        result = evaluation[name]
+        print(
+            f"  {name:<14} coverage {result['team_coverage']:.3f}  "
+            f"return per robot {result['mean_return']:.2f} m²"
+        )
+    print(f"outputs in {args.out}")
+
+
+if __name__ == "__main__":
+    main()

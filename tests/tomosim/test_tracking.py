@@ -1,0 +1,92 @@
+"""Transform tracking between merge rounds, and global searches in the worker process."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from merging.tracking import METHOD as TRACKED
+from tomosim.exploration import FrontierPolicy
+from tomosim.team import TeamConfig, TeamSession
+from tomosim.team.quality import RoundQuality
+from tomosim.team.worker import InlineSearches, WorkerSearches, searches
+from tomosim.worlds import generate_floorplan
+
+STEPS = 250
+"""Steps of the tracked episode: ten merge rounds at interval 25."""
+RIGHT_DEG, RIGHT_M = 2.0, 0.2
+"""An accepted merge must be this close to the truth (the exploration's accuracy goal)."""
+STEADY_DEG, STEADY_M = 0.5, 0.05
+"""How far a tracked transform may move between two rounds: odometry drift only."""
+
+
+def explore(*, worker: bool) -> tuple[list[RoundQuality], float]:
+    """Two robots exploring a small floor with the frontier policy, merging every 25 steps."""
+    world = generate_floorplan(1, width=15.0, height=10.0)
+    config = TeamConfig(merge_interval=25, merge_worker=worker)
+    session = TeamSession(world, robots=2, config=config, rng=3)
+    policies = [FrontierPolicy() for _ in range(2)]
+    rounds = []
+    for _ in range(STEPS):
+        sim = session.simulation
+        commands = [
+            policy.act(sim.odometry[k].pose, session.best_map(k), scan=sim.scans[k])
+            for k, policy in enumerate(policies)
+        ]
+        scored = session.step(commands)
+        if scored is not None:
+            rounds.append(scored)
+    return rounds, session.coverage.fraction
+
+
+@pytest.fixture(scope="module")
+def tracked() -> tuple[list[RoundQuality], float]:
+    return explore(worker=True)
+
+
+def test_worker_and_inline_searches_give_the_same_run(
+    tracked: tuple[list[RoundQuality], float],
+) -> None:
+    inline, coverage = explore(worker=False)
+    rounds, worker_coverage = tracked
+    assert coverage == worker_coverage
+    for a, b in zip(rounds, inline, strict=True):
+        assert a.pairs == b.pairs
+        np.testing.assert_array_equal(a.merge.merged.data, b.merge.merged.data)
+
+
+def test_a_linked_pair_is_tracked_accurately_and_steadily(
+    tracked: tuple[list[RoundQuality], float],
+) -> None:
+    rounds, _ = tracked
+    pairs = [r.pairs[0] for r in rounds]
+    methods = [r.merge.pairs[0].result.method for r in rounds]
+    # The first search runs until the next round: nothing can be accepted at once.
+    assert not pairs[0].accepted
+    assert TRACKED in methods and sum(p.confirmed for p in pairs) >= 5
+    for pair in pairs:
+        if pair.accepted:
+            assert pair.rotation_error_deg <= RIGHT_DEG and pair.translation_error_m <= RIGHT_M
+    for before, after, method in zip(pairs, pairs[1:], methods[1:], strict=False):
+        if method == TRACKED and before.accepted:  # tracked on from an accepted transform
+            turn = abs(after.estimate[2] - before.estimate[2])
+            shift = np.hypot(*np.subtract(after.estimate[:2], before.estimate[:2]))
+            assert np.degrees(turn) <= STEADY_DEG and shift <= STEADY_M
+
+
+def test_searches_are_collected_later_with_their_results() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    assert isinstance(searches(worker=False), InlineSearches)
+    assert isinstance(searches(worker=True), WorkerSearches)
+    inline = InlineSearches().submit(grid, grid, method="tomographic", seed=1).result()
+    first = WorkerSearches().submit(grid, grid, method="tomographic", seed=1)
+    second = WorkerSearches().submit(grid, grid, method="tomographic", seed=1)
+    assert first.result(timeout=120).confidence == inline.confidence
+    np.testing.assert_array_equal(second.result(timeout=120).matrix, inline.matrix)
+    failing = WorkerSearches().submit(grid, grid, method="no such method", seed=1)
+    with pytest.raises(ValueError, match="unknown merging method"):
+        failing.result(timeout=120)

@@ -1,0 +1,229 @@
+"""One scan integrated into a log-odds grid and its ROS-coded copy, compiled.
+
+The inverse sensor model is that of :func:`tomosim.mapping.integrate_rays`
+(its specification and test oracle), computed with the same single-precision
+sample positions, so both mark the same cells. Instead of fancy-indexed
+gathers, each cell passed is counted once per scan through a *stamp* grid
+holding the number of the last scan that passed it. The kernel also
+
+* recodes, in the ROS coding of :func:`tomosim.mapping.ros_codes`, exactly
+  the cells the scan changed, so that the exported grid is never converted
+  in full;
+* returns the flat indices of the cells observed for the first time, from
+  which the team coverage is kept up to date without scanning grids.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tomosim.kernels.jit import kernel
+
+UNKNOWN_CODE = -1
+"""ROS code of a cell never observed."""
+
+
+def code_thresholds() -> NDArray[np.float64]:
+    """``(100,)`` log-odds at which the ROS code steps from ``p - 1`` to ``p``, ``p = 1..100``.
+
+    ``round(100 / (1 + exp(-l)))`` (halves up) reaches ``p`` where the
+    probability reaches ``(p - 0.5) / 100``, at ``l = log(q / (1 - q))``;
+    counting the thresholds at or below ``l`` gives the code without an
+    exponential per cell.
+    """
+    q = (np.arange(1, 101) - 0.5) / 100.0
+    return np.log(q / (1.0 - q))
+
+
+@kernel
+def ros_code(value: float, thresholds: NDArray[np.float64]) -> int:
+    """ROS code of an observed cell of log-odds ``value`` (:func:`code_thresholds`)."""
+    return int(np.searchsorted(thresholds, value, side="right"))
+
+
+@kernel
+def integrate_scan(
+    logodds: NDArray[np.float32],
+    observed: NDArray[np.bool_],
+    codes: NDArray[np.int8],
+    stamps: NDArray[np.int32],
+    scan_id: int,
+    origin_x: float,
+    origin_y: float,
+    ends: NDArray[np.float64],
+    hit: NDArray[np.bool_],
+    log_odds_hit: float,
+    log_odds_miss: float,
+    log_odds_min: float,
+    log_odds_max: float,
+    sample_step: float,
+    hit_depth: float,
+    thresholds: NDArray[np.float64],
+) -> NDArray[np.int64]:
+    """Apply one scan in place (the model of :func:`tomosim.mapping.integrate_rays`).
+
+    Parameters
+    ----------
+    logodds : (rows, cols) float32 ndarray
+        Log-odds per cell, C-contiguous; updated in place.
+    observed : (rows, cols) bool ndarray
+        Set for every cell the scan touches.
+    codes : (rows, cols) int8 ndarray
+        The ROS-coded grid; the cells the scan touches are recoded.
+    stamps : (rows, cols) int32 ndarray
+        Per cell, the ``scan_id`` of the last scan that passed it; updated.
+    scan_id : int
+        A number no earlier scan of this grid used (greater than every stamp).
+    origin_x, origin_y : float
+        Sensor position in cell coordinates ``(x, y) = (col, row)``.
+    ends : (M, 2) float ndarray
+        Beam end points in cell coordinates, inside the grid like the origin.
+    hit : (M,) bool ndarray
+        Whether each beam's end point is an obstacle.
+    log_odds_hit, log_odds_miss, log_odds_min, log_odds_max : float
+        The model of :class:`tomosim.mapping.MappingConfig`.
+    sample_step : float
+        Cells between samples along a beam.
+    hit_depth : float
+        Cells beyond the end point at which a return marks its cell.
+    thresholds : (100,) float ndarray
+        :func:`code_thresholds`.
+
+    Returns
+    -------
+    (K,) int64 ndarray
+        Flat indices (``row * cols + col``) of the cells observed for the first time.
+    """
+    cols = logodds.shape[1]
+    flat = logodds.ravel()
+    seen = observed.ravel()
+    coded = codes.ravel()
+    stamp = stamps.ravel()
+    beams = ends.shape[0]
+    miss = np.float32(log_odds_miss)
+    low = np.float32(log_odds_min)
+    offset_x = np.float32(origin_x + 0.5)
+    offset_y = np.float32(origin_y + 0.5)
+    # Hit cells and their values before the scan (a hit wins over a pass).
+    hit_cells = np.empty(beams, dtype=np.int64)
+    hit_before = np.empty(beams, dtype=np.float32)
+    hits = 0
+    for i in range(beams):
+        if not hit[i]:
+            continue
+        dx = ends[i, 0] - origin_x
+        dy = ends[i, 1] - origin_y
+        depth = hit_depth / max(math.hypot(dx, dy), 2.2250738585072014e-308)
+        col = math.floor(ends[i, 0] + dx * depth + 0.5)
+        row = math.floor(ends[i, 1] + dy * depth + 0.5)
+        cell = row * cols + col
+        hit_cells[hits] = cell
+        hit_before[hits] = flat[cell]
+        hits += 1
+    total = 0
+    for i in range(beams):
+        length = math.hypot(ends[i, 0] - origin_x, ends[i, 1] - origin_y)
+        total += max(math.ceil(length / sample_step), 1)
+    touched = np.empty(total + hits, dtype=np.int64)
+    count = 0
+    # Passes: sample j of beam i at origin + j / n * (end - origin), j < n, once per cell.
+    for i in range(beams):
+        dx = ends[i, 0] - origin_x
+        dy = ends[i, 1] - origin_y
+        samples = max(math.ceil(math.hypot(dx, dy) / sample_step), 1)
+        step_x = np.float32(dx / samples)
+        step_y = np.float32(dy / samples)
+        for j in range(samples):
+            xs = step_x * np.float32(j) + offset_x
+            ys = step_y * np.float32(j) + offset_y
+            cell = int(ys) * cols + int(xs)
+            if stamp[cell] == scan_id:
+                continue
+            stamp[cell] = scan_id
+            before = flat[cell]
+            value = before + miss
+            value = value if value > low else low
+            # A value the clamp kept unchanged is the clamp (not 0): the cell was seen
+            # before and keeps its code, so only changed cells are recoded.
+            if value != before:
+                flat[cell] = value
+                touched[count] = cell
+                count += 1
+    for h in range(hits):
+        value = hit_before[h] + np.float32(log_odds_hit)
+        high = np.float32(log_odds_max)
+        flat[hit_cells[h]] = value if value < high else high
+        touched[count] = hit_cells[h]
+        count += 1
+    fresh = np.empty(count, dtype=np.int64)
+    new = 0
+    for t in range(count):
+        cell = touched[t]
+        if not seen[cell]:
+            seen[cell] = True
+            fresh[new] = cell
+            new += 1
+        coded[cell] = ros_code(flat[cell], thresholds)
+    return fresh[:new]
+
+
+@kernel
+def beam_ends(
+    x: float,
+    y: float,
+    theta: float,
+    angles: NDArray[np.float64],
+    ranges: NDArray[np.float64],
+    max_range: float,
+    carve_no_return: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """End points of the beams a scan integrates (step 2 of :mod:`tomosim.mapping`).
+
+    Parameters
+    ----------
+    x, y, theta : float
+        The pose the scan was taken at (map frame, metres, radians).
+    angles, ranges : (B,) float ndarray
+        The scan (:class:`tomosim.lidar.Scan`): ``inf`` no return, ``nan`` dropout.
+    max_range : float
+        Where a beam without return ends, metres.
+    carve_no_return : bool
+        Whether beams without return are integrated at all.
+
+    Returns
+    -------
+    ends : (M, 2) float ndarray
+        End points in metres of the beams used, in beam order.
+    hit : (M,) bool ndarray
+        Whether each used beam returned (its end is an obstacle).
+    box : (4,) float ndarray
+        ``(xmin, ymin, xmax, ymax)`` of the end points and the pose.
+    """
+    count = ranges.shape[0]
+    ends = np.empty((count, 2))
+    hit = np.empty(count, dtype=np.bool_)
+    box = np.array([x, y, x, y])
+    used = 0
+    for k in range(count):
+        value = ranges[k]
+        if math.isnan(value):
+            continue
+        returned = not math.isinf(value)
+        if not returned and not carve_no_return:
+            continue
+        length = value if returned else max_range
+        bearing = theta + angles[k]
+        ex = x + length * math.cos(bearing)
+        ey = y + length * math.sin(bearing)
+        ends[used, 0] = ex
+        ends[used, 1] = ey
+        hit[used] = returned
+        box[0] = min(box[0], ex)
+        box[1] = min(box[1], ey)
+        box[2] = max(box[2], ex)
+        box[3] = max(box[3], ey)
+        used += 1
+    return ends[:used], hit[:used], box

@@ -1,0 +1,156 @@
+"""Track each linked pair's transform between merge rounds; search globally only when needed.
+
+:class:`TrackingEstimator` is a :data:`~tomosim.team.merger.PairEstimator`
+for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
+
+1. collects the global search submitted at the pair's previous round, if any
+   (:mod:`tomosim.team.worker`: it ran meanwhile in a worker process);
+2. refines and verifies, on the current maps, the pair's tracked transform
+   (the last one accepted) and the collected search's, if accepted
+   (:func:`merging.tracking.track_transform`), and returns the better of those
+   accepted: a linked pair costs a refinement, not a search, and its
+   transform does not jump between rounds;
+3. submits a new global search, for the next round, when nothing could be
+   tracked and either map gained walls since the pair's last search
+   (:data:`SEARCH_GROWTH`: a pair refused on the same walls would be refused
+   again) or the track was lost, or every :data:`SEARCH_EVERY_ROUNDS` rounds of tracking (a
+   second opinion, should the track have locked onto a wrong fit);
+4. otherwise returns the last search's result, not accepted, with the reason.
+
+Searches are collected at a fixed later step (the next round), so a run is
+the same whether they ran in the worker process or inline. Compared with
+searching every pair every round, an accepted search takes effect one round
+later.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import Future
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from merging.api import DEFAULT_METHOD
+from merging.grid import OccupancyGrid, occupied_mask
+from merging.result import MergeResult
+from merging.tracking import frame_matrix, frame_to_cells, track_transform
+from tomosim.team.worker import Searches, searches
+from tomosim.worlds.world import RngLike, as_generator
+
+SEARCH_EVERY_ROUNDS = 4
+"""Rounds of tracking after which a pair is searched globally again."""
+SEARCH_GROWTH = 0.1
+"""Fraction of new occupied cells (in either map, since the pair's last search) that
+makes an untracked pair worth searching again."""
+SEARCH_MIN_NEW_WALLS = 20
+"""New occupied cells that make an untracked pair worth searching again whatever the
+fraction (a small map's first walls)."""
+SEED_BOUND = 2**31
+"""Seeds given to searches are drawn below this."""
+
+
+@dataclass(slots=True)
+class _PairState:
+    """What the tracker knows of one pair."""
+
+    tracked: NDArray[np.float64] | None = None
+    rounds_tracked: int = 0
+    walls_at_search: tuple[int, int] | None = None
+    last: MergeResult | None = None
+    pending: Future[MergeResult] | None = None
+
+
+def _walls(grid: OccupancyGrid) -> int:
+    return int(np.count_nonzero(occupied_mask(grid.data)))
+
+
+class TrackingEstimator:
+    """Pair estimates by tracking, with global searches in a worker (module docstring).
+
+    Parameters
+    ----------
+    method : str
+        The global search's method (:func:`merging.estimate_transform`).
+    worker : bool
+        Run global searches in a worker process (else inline; same results).
+    rng : numpy.random.Generator, int or None
+        Source of the searches' seeds.
+    """
+
+    __slots__ = ("_pairs", "_rng", "_searches", "method")
+
+    def __init__(
+        self, *, method: str = DEFAULT_METHOD, worker: bool = True, rng: RngLike = None
+    ) -> None:
+        self.method = method
+        self._searches: Searches = searches(worker=worker)
+        self._rng = as_generator(rng)
+        self._pairs: dict[tuple[int, int], _PairState] = {}
+
+    def __call__(
+        self, first: int, second: int, grid_1: OccupancyGrid, grid_2: OccupancyGrid
+    ) -> MergeResult:
+        """This round's estimate of the pair ``(first, second)`` (steps 1-4)."""
+        state = self._pairs.setdefault((first, second), _PairState())
+        found = None
+        if state.pending is not None:  # 1. last round's search
+            found = state.pending.result()
+            state.pending = None
+            state.last = found
+        starts = [] if state.tracked is None else [state.tracked]
+        searched = None if found is None or not found.accepted else frame_matrix(found)
+        if searched is not None:
+            starts.append(searched)
+        best = None
+        for start in starts:  # 2. refine and verify on today's maps
+            tracked = track_transform(grid_1, grid_2, start)
+            if tracked.accepted and (best is None or tracked.confidence > best.confidence):
+                best = tracked
+        walls = (_walls(grid_1), _walls(grid_2))
+        if best is not None:
+            state.tracked = frame_matrix(best)
+            state.rounds_tracked = 0 if found is not None else state.rounds_tracked + 1
+            if state.rounds_tracked >= SEARCH_EVERY_ROUNDS:  # 3. a second opinion
+                self._submit(state, grid_1, grid_2, walls)
+            return best
+        lost = state.tracked is not None
+        state.tracked = None
+        state.rounds_tracked = 0
+        if lost or self._grown(state, walls):  # 3. a lost track, or new walls: search again
+            self._submit(state, grid_1, grid_2, walls)
+            why = "searching globally; the result is used at the next round"
+        else:
+            why = "no new walls since the last global search, which was not accepted"
+        last = state.last
+        if last is None:
+            return MergeResult(np.eye(3), 0.0, False, self.method, reason=why)
+        metres = frame_matrix(last)
+        matrix = last.matrix  # the search's cells; the maps have grown since: recompute
+        if metres is not None:
+            matrix = frame_to_cells(metres, grid_1, grid_2)
+        reason = f"{why} ({last.reason or 'lost track'})"
+        return replace(last, matrix=matrix, accepted=False, reason=reason)
+
+    def _grown(self, state: _PairState, walls: tuple[int, int]) -> bool:
+        """Whether either map gained walls enough since the pair's last search."""
+        before = state.walls_at_search
+        if before is None:
+            return True
+        return any(
+            now - then >= max(SEARCH_MIN_NEW_WALLS, SEARCH_GROWTH * then)
+            for now, then in zip(walls, before, strict=True)
+        )
+
+    def _submit(
+        self,
+        state: _PairState,
+        grid_1: OccupancyGrid,
+        grid_2: OccupancyGrid,
+        walls: tuple[int, int],
+    ) -> None:
+        """Start a global search whose result the pair's next round collects."""
+        seed = int(self._rng.integers(SEED_BOUND))
+        state.pending = self._searches.submit(grid_1, grid_2, method=self.method, seed=seed)
+        state.walls_at_search = walls
+        state.rounds_tracked = 0
