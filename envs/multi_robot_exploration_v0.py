@@ -340,10 +340,10 @@ class MultiRobotExplorationEnv(ParallelEnv):
             raise ValueError(
                 f"actions for unknown agents {sorted(unknown)}; agents are {self.agents}"
             )
-        commands = np.zeros((len(self.possible_agents), 2))
-        for k, agent in enumerate(self.possible_agents):
-            if actions.get(agent) is not None:
-                commands[k] = command(actions[agent], name=agent)
+        commands = [
+            (0.0, 0.0) if actions.get(agent) is None else command(actions[agent], name=agent)
+            for agent in self.possible_agents
+        ]
         merge = session.step(commands)
         observations = self._observations()
         rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}

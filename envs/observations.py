@@ -127,7 +127,7 @@ def observe(
     scan = session.simulation.scans[robot]
     ranges = scan.ranges.astype(np.float32)  # returns already lie in [0, max_range]
     ranges[~np.isfinite(ranges)] = scan.max_range
-    x, y, theta = (float(v) for v in session.simulation.odometry[robot].pose)
+    x, y, theta = session.simulation.odometry[robot].pose.tolist()
     return {
         "scan": ranges,
         "map": session.best_crop(robot, size=size, pool=pool),
@@ -137,11 +137,13 @@ def observe(
     }
 
 
-def command(action: object, *, name: str) -> NDArray[np.float64]:
+def command(action: object, *, name: str) -> tuple[float, float]:
     """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
     values = np.asarray(action, dtype=np.float64).reshape(-1)
-    if values.shape != (2,) or not (math.isfinite(values[0]) and math.isfinite(values[1])):
-        raise ValueError(
-            f"the action of {name} must be two finite numbers (linear, angular), got {action!r}"
-        )
-    return np.clip(values, -1.0, 1.0)
+    if values.shape == (2,):
+        linear, angular = values.tolist()
+        if math.isfinite(linear) and math.isfinite(angular):
+            return (min(max(linear, -1.0), 1.0), min(max(angular, -1.0), 1.0))
+    raise ValueError(
+        f"the action of {name} must be two finite numbers (linear, angular), got {action!r}"
+    )

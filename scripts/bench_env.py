@@ -19,12 +19,25 @@ Three tables:
 3. the same through Gymnasium's ``AsyncVectorEnv`` of the centralised view.
 
 The tables give the median and the spread (min..max) over the repeats, of
-rates by the wall clock and, for one environment, by the process's CPU time
-(``cpu`` columns): on a machine loaded by other work the CPU-time rate is the
-steadier measure of this process's own cost. The CPU time excludes the
-worker process in which global merge searches run (``TeamConfig.merge_worker``),
-which has a core of its own on an idle machine. To compare with another
-checkout, run this script with ``PYTHONPATH=/path/to/that/checkout``.
+rates by the wall clock and, for one environment, by CPU time (``cpu``
+columns). The global merge searches run in a worker process
+(:mod:`tomosim.team.worker`); when a round needs searches the worker has not
+started, the environment's process runs them itself rather than wait idle.
+The ``cpu`` rate divides by the process's CPU time less those searches: the
+environment's own cost, comparable between versions and steadier than the
+wall clock on a machine loaded by other work; ``searches here`` is the share
+of the process's CPU time that went to searches. The wall clock includes
+every wait for the worker: on a machine with no idle core for it, it reads
+low. To compare with another checkout, run this script with
+``PYTHONPATH=/path/to/that/checkout``.
+
+Measured on this 2-core machine while other work kept its load between 5 and
+7.5 (so the wall-clock rates are low and spread widely), three times 5 runs
+of 300 steps back to back with the version before (medians of the ``cpu``
+column): 3 robots 5183, 4494 and 5543 robot-steps/s against 2608, 2261 and
+3022 before; 8 robots 3734, 2992 and 4294 against 1966, 1736 and 2524. On an
+idle machine the wall clock is bounded by the merge searches as much as by
+the step (README, "The environment: robot-steps per second").
 
 Usage::
 
@@ -46,6 +59,7 @@ from typing import Any
 import numpy as np
 
 from envs import multi_robot_exploration_v0 as exploration
+from tomosim.team.worker import WorkerSearches
 
 WARMUP_STEPS = 20
 """Untimed steps before each timed run (first-call and compilation costs)."""
@@ -58,36 +72,50 @@ def random_actions(env: Any, generator: np.random.Generator) -> dict[str, Any]:
     return {agent: generator.uniform(-1.0, 1.0, 2).astype(np.float32) for agent in env.agents}
 
 
+def searches_here() -> float:
+    """CPU seconds this process has spent on merge searches it took back from the worker
+    (0 for a checkout whose environment never does that, timed with ``PYTHONPATH``)."""
+    return float(getattr(WorkerSearches, "cpu_seconds_here", 0.0))
+
+
 def run_steps(
     env: Any, steps: int, generator: np.random.Generator, seed: int
-) -> tuple[float, float]:
+) -> tuple[float, float, float]:
     """Step ``env`` ``steps`` times under random actions, resetting ended episodes;
-    returns the wall-clock and CPU seconds taken."""
+    returns the wall-clock and CPU seconds taken, and the CPU seconds of merge
+    searches this process ran itself (taken back from the worker)."""
     start, cpu = time.perf_counter(), time.process_time()
+    searches = searches_here()
     for _ in range(steps):
         if not env.agents:
             seed += 1
             env.reset(seed=seed)
         env.step(random_actions(env, generator))
-    return time.perf_counter() - start, time.process_time() - cpu
+    return (
+        time.perf_counter() - start,
+        time.process_time() - cpu,
+        searches_here() - searches,
+    )
 
 
 def bench_single(
     robots: int, steps: int, repeats: int, **kwargs: Any
-) -> tuple[list[float], list[float]]:
+) -> tuple[list[float], list[float], list[float]]:
     """Robot-steps per second of ``repeats`` fresh runs of one environment, by the wall
-    clock and by CPU time."""
-    wall, cpu = [], []
+    clock and by CPU time without merge searches, and the share of the process's CPU
+    time spent on merge searches."""
+    wall, cpu, shares = [], [], []
     for repeat in range(repeats):
         env = exploration.parallel_env(robots=robots, **kwargs)
         env.reset(seed=repeat)
         generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
         run_steps(env, WARMUP_STEPS, generator, repeat)
-        seconds, cpu_seconds = run_steps(env, steps, generator, repeat)
+        seconds, cpu_seconds, search_seconds = run_steps(env, steps, generator, repeat)
         wall.append(robots * steps / seconds)
-        cpu.append(robots * steps / max(cpu_seconds, 1e-9))
+        cpu.append(robots * steps / max(cpu_seconds - search_seconds, 1e-9))
+        shares.append(search_seconds / max(cpu_seconds, 1e-9))
         env.close()
-    return wall, cpu
+    return wall, cpu, shares
 
 
 def advance_vector(venv: Any, steps: int, actions: Callable[[], Any]) -> float:
@@ -131,11 +159,19 @@ def bench_gymnasium(envs: int, robots: int, steps: int, repeats: int) -> list[fl
     return rates
 
 
-def row(label: str, rates: list[float], cpu: list[float] | None = None) -> str:
-    """One table row: label, median, min, max (and the same by CPU time)."""
+def row(
+    label: str,
+    rates: list[float],
+    cpu: list[float] | None = None,
+    shares: list[float] | None = None,
+) -> str:
+    """One table row: label, median, min, max (and the same by CPU time, and the
+    median share of searches)."""
     text = f"{label:<28} {statistics.median(rates):>8.0f} {min(rates):>8.0f} {max(rates):>8.0f}"
     if cpu is not None:
         text += f" {statistics.median(cpu):>10.0f} {min(cpu):>8.0f} {max(cpu):>8.0f}"
+    if shares is not None:
+        text += f" {100 * statistics.median(shares):>13.0f}%"
     return text
 
 
@@ -143,7 +179,7 @@ def header(title: str, cpu: bool = False) -> str:
     """A table's title and column names."""
     names = f"{'configuration':<28} {'median':>8} {'min':>8} {'max':>8}"
     if cpu:
-        names += f" {'cpu median':>10} {'min':>8} {'max':>8}"
+        names += f" {'cpu median':>10} {'min':>8} {'max':>8} {'searches here':>14}"
     return f"\n{title}\n{names}"
 
 

@@ -5,7 +5,8 @@ its share of the physics, its odometry, a full lidar scan (360 beams by
 default, other robots visible) and the log-odds update of its map. Robots
 wander under smooth random commands, so they meet walls and each other as in
 an episode. Each configuration is timed ``--repeats`` times on one core;
-the table gives the median and the spread (min..max).
+the table gives the median and the spread (min..max), by the wall clock and
+by the process's CPU time (``cpu``, steadier when other work loads the machine).
 
 A second table times one scan with the compiled caster the lidar uses, the
 numpy caster it was written from, and pymunk's segment queries, the oracle
@@ -43,29 +44,34 @@ WARMUP_STEPS = 20
 """Untimed steps before each timed run (first-call costs, map allocation)."""
 
 
-def wander(sim: Simulation, steps: int, rng: np.random.Generator) -> float:
-    """Run ``steps`` steps of smooth random driving; returns the seconds taken."""
+def wander(sim: Simulation, steps: int, rng: np.random.Generator) -> tuple[float, float]:
+    """Run ``steps`` steps of smooth random driving; returns the wall-clock and CPU
+    seconds taken."""
     commands = np.column_stack([np.full(sim.count, 0.8), np.zeros(sim.count)])
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     for step in range(steps):
         if step % COMMAND_HOLD_STEPS == 0:
             commands[:, 1] = rng.uniform(-1.0, 1.0, sim.count)
         sim.step(commands)
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu
 
 
-def bench_simulation(robots: int, steps: int, repeats: int, beams: int) -> list[float]:
-    """Robot-steps per second of ``repeats`` fresh runs with ``robots`` robots."""
+def bench_simulation(
+    robots: int, steps: int, repeats: int, beams: int
+) -> tuple[list[float], list[float]]:
+    """Robot-steps per second of ``repeats`` fresh runs with ``robots`` robots, by the wall
+    clock and by CPU time (the steadier figure on a machine loaded by other work)."""
     world = generate_floorplan(WORLD_SEED)
     config = SimulationConfig(lidar=LidarConfig(beams=beams))
-    rates = []
+    rates, cpu_rates = [], []
     for repeat in range(repeats):
         sim = Simulation(world, robots=robots, config=config, rng=repeat)
         rng = np.random.default_rng(repeat)
         wander(sim, WARMUP_STEPS, rng)
-        seconds = wander(sim, steps, rng)
+        seconds, cpu_seconds = wander(sim, steps, rng)
         rates.append(robots * steps / seconds)
-    return rates
+        cpu_rates.append(robots * steps / max(cpu_seconds, 1e-9))
+    return rates, cpu_rates
 
 
 def bench_lidar(scans: int, beams: int) -> tuple[float, float, float]:
@@ -138,12 +144,16 @@ def main() -> None:
         f"world: {world.name}, {len(world.walls)} wall segments; {args.beams} beams; "
         f"{args.steps} steps x {args.repeats} repeats"
     )
-    print(f"{'robots':>6} {'steps':>6} {'robot-steps/s median':>21} {'min':>8} {'max':>8}")
+    print(
+        f"{'robots':>6} {'steps':>6} {'robot-steps/s median':>21} {'min':>8} {'max':>8}"
+        f" {'cpu median':>10} {'min':>8} {'max':>8}"
+    )
     for robots in args.robots:
-        rates = bench_simulation(robots, args.steps, args.repeats, args.beams)
+        rates, cpu = bench_simulation(robots, args.steps, args.repeats, args.beams)
         print(
             f"{robots:>6} {args.steps:>6} {statistics.median(rates):>21.0f} "
-            f"{min(rates):>8.0f} {max(rates):>8.0f}"
+            f"{min(rates):>8.0f} {max(rates):>8.0f} {statistics.median(cpu):>10.0f} "
+            f"{min(cpu):>8.0f} {max(cpu):>8.0f}"
         )
     kernel_us, numpy_us, pymunk_us = bench_lidar(args.scans, args.beams)
     print(f"\nlidar, one {args.beams}-beam scan without noise:")

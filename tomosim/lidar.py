@@ -19,12 +19,13 @@ those and against pymunk's segment queries (:mod:`tomosim.lidar_oracle`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tomosim.kernels.raycast import add_noise, cast_scan
+from tomosim.kernels.raycast import add_noise, cast_scan, scan_team
 from tomosim.worlds.world import as_segments
 
 FULL_CIRCLE_TOLERANCE = 1e-9
@@ -192,3 +193,47 @@ class Lidar:
             ranges, normals, uniforms, cfg.range_noise_std, cfg.dropout_probability, cfg.max_range
         )
         return Scan(self._angles, ranges, cfg.max_range)
+
+    def scans(
+        self, poses: NDArray[np.float64], *, radius: float, rngs: Sequence[np.random.Generator]
+    ) -> list[Scan]:
+        """A noisy :class:`Scan` from each of ``poses``, robots of ``radius`` metres that see
+        each other.
+
+        The same scans as :meth:`scan` from each pose in turn with the other
+        robots as ``others`` (robot ``k`` drawing from ``rngs[k]``), in one
+        compiled call.
+
+        Parameters
+        ----------
+        poses : (N, 3) float ndarray
+            True poses ``(x, y, theta)``, metres and radians.
+        radius : float
+            The robots' radius, metres.
+        rngs : sequence of N numpy.random.Generator
+            Each robot's stream.
+        """
+        cfg = self.config
+        beams = cfg.beams
+        robots = len(poses)
+        if len(rngs) != robots:
+            raise ValueError(f"need one generator per pose, got {len(rngs)} for {robots}")
+        normals = np.empty((robots, beams))
+        uniforms = np.empty((robots, beams))
+        for k, rng in enumerate(rngs):  # per robot, as scan() draws them
+            normals[k] = rng.normal(0.0, 1.0, beams)
+            uniforms[k] = rng.random(beams)
+        ranges = scan_team(
+            np.ascontiguousarray(poses, dtype=np.float64),
+            cfg.first_angle,
+            cfg.increment,
+            beams,
+            self._flat_walls,
+            float(radius),
+            cfg.max_range,
+            normals,
+            uniforms,
+            cfg.range_noise_std,
+            cfg.dropout_probability,
+        )
+        return [Scan(self._angles, row, cfg.max_range) for row in ranges]

@@ -20,8 +20,10 @@ Exported grids use the ROS coding of :mod:`merging.grid`:
 
 :func:`integrate_rays` and :func:`ros_codes` state the model in numpy; a
 :class:`LogOddsMap` applies it with the compiled kernel
-:func:`tomosim.kernels.logodds.integrate_scan`, which the tests check against
-them, and keeps its ROS-coded grid up to date cell by cell.
+:func:`tomosim.kernels.logodds.integrate_scan` (through
+:func:`~tomosim.kernels.logodds.update_grid`, which also finds the beams' end
+points), which the tests check against them, and keeps its ROS-coded grid up
+to date cell by cell.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
-from tomosim.kernels.logodds import beam_ends, code_thresholds, integrate_scan
+from tomosim.kernels.logodds import code_thresholds, update_grid
 from tomosim.lidar import Scan
 
 HIT_DEPTH_CELLS = 0.5
@@ -45,6 +47,10 @@ SAMPLE_STEP_CELLS = 1.0
 """Cells between samples along a beam: one sample per cell crossed straight;
 a diagonal crossing may skip a corner cell, which neighbouring beams fill."""
 
+STAMP_DTYPE = np.uint8
+"""Type of the kernel's per-cell scan stamps: one byte keeps them, and the cells a
+scan reads, in fewer cache lines; the stamps are cleared every 255 scans, when the
+scan numbers start again."""
 CODE_THRESHOLDS = code_thresholds()
 """Log-odds at which the ROS code of a cell steps up
 (:func:`~tomosim.kernels.logodds.code_thresholds`)."""
@@ -225,7 +231,7 @@ class LogOddsMap:
         # The ROS-coded grid, recoded cell by cell as scans change cells, and per
         # cell the number of the last scan that passed it (the kernel's stamps).
         self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
-        self._stamps = np.zeros((side, side), dtype=np.int32)
+        self._stamps = np.zeros((side, side), dtype=STAMP_DTYPE)
         self._scans = 0
         self.journal: list[NDArray[np.int64]] | None = None
 
@@ -298,48 +304,48 @@ class LogOddsMap:
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             raise ValueError(f"pose must be finite, got {(x, y, theta)}")
         cfg = self.config
-        ends, hit, box = beam_ends(
-            x, y, theta, scan.angles, scan.ranges, scan.max_range, cfg.carve_no_return
-        )
-        if len(ends) == 0:
-            return
-        # One cell of room beyond the end points for the hit cells (HIT_DEPTH_CELLS).
-        room = cfg.resolution
-        xmin, ymin, xmax, ymax = box.tolist()
-        ox, oy = self.origin
-        rows, cols = self.logodds.shape
-        if not (
-            xmin - room >= ox
-            and ymin - room >= oy
-            and xmax + room < ox + cols * room
-            and ymax + room < oy + rows * room
-        ):  # the quick test; ensure_contains applies the exact one (the scan needs half the room)
-            self.ensure_contains((xmin - room, ymin - room), (xmax + room, ymax + room))
-            ox, oy = self.origin
-        cells = (ends - (ox, oy)) / cfg.resolution - 0.5
-        self._scans += 1
-        fresh = integrate_scan(
-            self.logodds,
-            self.observed,
-            self._cells,
-            self._stamps,
-            self._scans,
-            (x - ox) / cfg.resolution - 0.5,
-            (y - oy) / cfg.resolution - 0.5,
-            cells,
-            hit,
-            cfg.log_odds_hit,
-            cfg.log_odds_miss,
-            cfg.log_odds_min,
-            cfg.log_odds_max,
-            SAMPLE_STEP_CELLS,
-            HIT_DEPTH_CELLS,
-            CODE_THRESHOLDS,
-        )
-        if self.journal is not None and len(fresh):
+        room_checked = False
+        while True:
+            # Scan numbers run 1..255 and start again on cleared stamps (STAMP_DTYPE).
+            self._scans = self._scans % np.iinfo(STAMP_DTYPE).max + 1
+            if self._scans == 1:
+                self._stamps.fill(0)
             a0, b0 = self.anchor
-            cols = self.shape[1]
-            self.journal.append(np.column_stack([fresh % cols + a0, fresh // cols + b0]))
+            grow, fresh = update_grid(
+                self.logodds,
+                self.observed,
+                self._cells,
+                self._stamps,
+                self._scans,
+                self.origin[0],
+                self.origin[1],
+                cfg.resolution,
+                x,
+                y,
+                theta,
+                scan.angles,
+                scan.ranges,
+                scan.max_range,
+                cfg.carve_no_return,
+                room_checked,
+                cfg.log_odds_hit,
+                cfg.log_odds_miss,
+                cfg.log_odds_min,
+                cfg.log_odds_max,
+                SAMPLE_STEP_CELLS,
+                HIT_DEPTH_CELLS,
+                CODE_THRESHOLDS,
+                a0,
+                b0,
+            )
+            if len(grow) == 0:
+                break
+            # The quick test of the kernel failed; ensure_contains applies the exact one
+            # (the scan needs half the room it asks for).
+            self.ensure_contains(grow[:2], grow[2:])
+            room_checked = True
+        if self.journal is not None and len(fresh):
+            self.journal.append(fresh)
 
     def probability(self) -> NDArray[np.float64]:
         """``(rows, cols)`` occupancy probability, ``nan`` where never observed."""

@@ -168,10 +168,10 @@ class Physics:
 
     def poses(self) -> NDArray[np.float64]:
         """``(N, 3)`` true poses ``(x, y, theta)``, ``theta`` wrapped to ``[-pi, pi)``."""
-        out = np.array([(b.position.x, b.position.y, b.angle) for b in self.bodies])
-        out = out.reshape(-1, 3)
-        out[:, 2] = np.mod(out[:, 2] + np.pi, 2 * np.pi) - np.pi
-        return out
+        turn = 2 * math.pi
+        # Python's float modulo is numpy's (np.mod): the sign of the divisor, exactly.
+        rows = [(*b.position, (b.angle + math.pi) % turn - math.pi) for b in self.bodies]
+        return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
     def in_contact(self, *, tolerance: float = CONTACT_TOLERANCE) -> NDArray[np.bool_]:
         """``(N,)`` whether each robot is within ``tolerance`` metres of touching a
@@ -198,20 +198,22 @@ class Physics:
             Seconds; split into :meth:`PhysicsConfig.substeps` substeps.
         """
         cfg = self.config
-        v = np.clip(np.asarray(linear, dtype=float), -cfg.max_linear_speed, cfg.max_linear_speed)
-        w = np.clip(np.asarray(angular, dtype=float), -cfg.max_angular_speed, cfg.max_angular_speed)
+        v = np.asarray(linear, dtype=float)
+        w = np.asarray(angular, dtype=float)
         if v.shape != (self.count,) or w.shape != (self.count,):
             raise ValueError(
                 f"linear and angular must have shape ({self.count},), got {v.shape} and {w.shape}"
             )
-        if not (np.all(np.isfinite(v)) and np.all(np.isfinite(w))):
+        speeds, turns = v.tolist(), w.tolist()
+        if not all(math.isfinite(value) for value in speeds + turns):
             raise ValueError("linear and angular speeds must be finite")
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive number of seconds, got {dt}")
+        top_speed, top_turn = cfg.max_linear_speed, cfg.max_angular_speed
+        speeds = [min(max(value, -top_speed), top_speed) for value in speeds]
+        turns = [min(max(value, -top_turn), top_turn) for value in turns]
         substeps = cfg.substeps(dt)
         h = dt / substeps
-        speeds = v.tolist()
-        turns = w.tolist()
         for _ in range(substeps):
             for body, control, speed, turn in zip(
                 self.bodies, self.controls, speeds, turns, strict=True

@@ -99,8 +99,6 @@ class Simulation:
 
     __slots__ = (
         "_lidar_rngs",
-        "_other_radii",
-        "_others",
         "_true",
         "config",
         "lidar",
@@ -154,9 +152,6 @@ class Simulation:
             Odometry(self.config.odometry, pose, streams[2 * i]) for i, pose in enumerate(start)
         ]
         self._lidar_rngs = streams[1::2]
-        everyone = np.arange(len(start))
-        self._others = [np.delete(everyone, index) for index in everyone]  # who robot k sees
-        self._other_radii = np.full(len(start) - 1, self.config.physics.robot_radius)
         self.maps = [LogOddsMap(self.config.mapping) for _ in range(len(start))]
         self.steps = 0
         self._true = self.physics.poses()
@@ -199,30 +194,25 @@ class Simulation:
         command = np.asarray(commands, dtype=float)
         if command.shape != (self.count, 2):
             raise ValueError(f"commands must have shape ({self.count}, 2), got {command.shape}")
-        if not np.all(np.isfinite(command)) or np.any(np.abs(command) > 1.0):
-            raise ValueError(f"commands must be finite and within [-1, 1], got {command.tolist()}")
+        values = command.tolist()
+        if not all(math.isfinite(v) and abs(v) <= 1.0 for pair in values for v in pair):
+            raise ValueError(f"commands must be finite and within [-1, 1], got {values}")
         phys = self.config.physics
         self.physics.step(
-            command[:, 0] * phys.max_linear_speed,
-            command[:, 1] * phys.max_angular_speed,
+            [linear * phys.max_linear_speed for linear, _ in values],
+            [angular * phys.max_angular_speed for _, angular in values],
             self.config.dt,
         )
         self._true = self.physics.poses()
-        for odometry, pose in zip(self.odometry, self._true, strict=True):
+        for odometry, pose in zip(self.odometry, self._true.tolist(), strict=True):
             odometry.update(pose)
         self.steps += 1
         self._sense()
 
     def _sense(self) -> None:
         """Scan from every true pose and map at every odometry pose."""
-        centres = self._true[:, :2]
-        radii = self._other_radii
-        scans = []
-        for index in range(self.count):
-            others = centres[self._others[index]]
-            scan = self.lidar.scan(
-                self._true[index], rng=self._lidar_rngs[index], others=others, other_radii=radii
-            )
-            self.maps[index].update(self.odometry[index].pose, scan)
-            scans.append(scan)
-        self.scans = scans
+        self.scans = self.lidar.scans(
+            self._true, radius=self.config.physics.robot_radius, rngs=self._lidar_rngs
+        )
+        for grid_map, odometry, scan in zip(self.maps, self.odometry, self.scans, strict=True):
+            grid_map.update(odometry.pose, scan)

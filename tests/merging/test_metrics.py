@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from merging.grid import free_mask, occupied_mask
 from merging.metrics import (
     acceptance_index,
     as_matrix,
@@ -13,6 +14,7 @@ from merging.metrics import (
     transform_error,
 )
 from merging.transforms import rigid_matrix, rotation_about
+from merging.warp import warp_cells
 
 from .test_tomographic import turned
 
@@ -92,6 +94,38 @@ def test_match_indices_equal_the_separate_metrics(building: np.ndarray) -> None:
             matching_index(building, map2, matrix),
             acceptance_index(building, map2, matrix),
         )
+
+
+def warped_indices(map1: np.ndarray, map2: np.ndarray, matrix: np.ndarray) -> tuple[float, float]:
+    """The oracle: warp map 2 whole into map 1's grid, then count with masks."""
+    warped = warp_cells(map2, matrix, map1.shape)
+    overlap = (map1 >= 0) & (warped >= 0)
+    occ1, occ2 = occupied_mask(map1) & overlap, occupied_mask(warped) & overlap
+    either = np.count_nonzero(occ1 | occ2)
+    matching = np.count_nonzero(occ1 & occ2) / either if either else 0.0
+    free1, free2 = free_mask(map1), free_mask(warped)
+    agree = np.count_nonzero((occ1 & occ2) | (free1 & free2))
+    disagree = np.count_nonzero((occ1 & free2) | (free1 & occ2))
+    return matching, agree / (agree + disagree) if agree + disagree else 0.0
+
+
+def test_indices_equal_warping_map_2_whole_and_counting() -> None:
+    rng = np.random.default_rng(12)
+    values = np.array([-1, 0, 10, 19, 20, 50, 64, 65, 100], np.int8)
+    for trial in range(60):
+        map1 = rng.choice(values, size=tuple(rng.integers(5, 40, 2)))
+        map2 = rng.choice(values, size=tuple(rng.integers(5, 40, 2)))
+        if trial % 3 == 0:  # a small known patch: only the map 1 cells it can reach are looked at
+            patch = map2[:4, 2:7].copy()
+            map2[...] = -1
+            map2[:4, 2:7] = patch
+        angle = rng.integers(4) * np.pi / 2 if trial % 2 else rng.uniform(-np.pi, np.pi)
+        dx, dy = rng.integers(-10, 10, 2) + rng.choice([0.0, 0.5], 2)
+        matrix = rigid_matrix(float(dx), float(dy), float(angle))
+        expected = warped_indices(map1, map2, matrix)
+        assert match_indices(map1, map2, matrix) == expected  # the same counts, exactly
+        assert matching_index(map1, map2, matrix) == expected[0]
+        assert acceptance_index(map1, map2, matrix) == expected[1]
 
 
 def test_transform_error_of_the_truth_is_zero() -> None:

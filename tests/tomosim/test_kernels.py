@@ -9,13 +9,14 @@ import pytest
 
 from merging.grid import UNKNOWN
 from tomosim.kernels.crop import crop_max_pool
-from tomosim.kernels.logodds import code_thresholds, integrate_scan, ros_code
+from tomosim.kernels.logodds import beam_ends, code_thresholds, integrate_scan, ros_code
 from tomosim.kernels.raycast import cast_scan
-from tomosim.lidar import LidarConfig
+from tomosim.lidar import Lidar, LidarConfig
 from tomosim.mapping import (
     CODE_THRESHOLDS,
     HIT_DEPTH_CELLS,
     SAMPLE_STEP_CELLS,
+    LogOddsMap,
     MappingConfig,
     integrate_rays,
     ros_codes,
@@ -126,7 +127,7 @@ def test_log_odds_kernel_matches_the_numpy_model_scan_by_scan() -> None:
     logodds, observed = np.zeros(shape, np.float32), np.zeros(shape, bool)
     kernel_logodds, kernel_observed = logodds.copy(), observed.copy()
     codes = np.full(shape, UNKNOWN, np.int8)
-    stamps = np.zeros(shape, np.int32)
+    stamps = np.zeros(shape, np.uint8)
     for scan in range(1, 40):
         origin, ends, hit = random_scan(rng, shape, 90)
         before = observed.copy()
@@ -142,6 +143,29 @@ def test_log_odds_kernel_matches_the_numpy_model_scan_by_scan() -> None:
         np.testing.assert_array_equal(np.sort(fresh), np.flatnonzero(observed & ~before))
     assert np.count_nonzero(observed) > shape[0] * shape[1] // 3
     assert np.any(logodds == np.float32(config.log_odds_min))  # the clamp was exercised
+
+
+def test_a_map_matches_the_numpy_model_past_the_wrap_of_its_scan_numbers() -> None:
+    # 300 scans: the one-byte stamps are cleared and their numbers start again once.
+    grid_map = LogOddsMap(MappingConfig(initial_extent=6.0))
+    logodds = np.zeros(grid_map.shape, np.float32)
+    observed = np.zeros(grid_map.shape, bool)
+    lidar = Lidar(LidarConfig(beams=120, max_range=2.5), generate_floorplan(3).walls)
+    rng = np.random.default_rng(8)
+    for _ in range(300):
+        pose = np.array([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), rng.uniform(-3, 3)])
+        scan = lidar.scan(pose, rng=rng)
+        grid_map.update(pose, scan)
+        assert grid_map.shape == logodds.shape  # the room never makes the grid grow
+        ends, hit, _ = beam_ends(*pose, scan.angles, scan.ranges, scan.max_range, True)
+        origin = grid_map.to_cells(pose[:2])[0]
+        integrate_rays(
+            logodds, observed, (origin[0], origin[1]), grid_map.to_cells(ends), hit,
+            grid_map.config,
+        )  # fmt: skip
+    np.testing.assert_array_equal(grid_map.logodds, logodds)
+    np.testing.assert_array_equal(grid_map.observed, observed)
+    np.testing.assert_array_equal(grid_map.cells, ros_codes(logodds, observed))
 
 
 def test_a_growing_map_journals_every_cell_it_observes_once() -> None:
@@ -199,17 +223,18 @@ def numpy_crop(
     return cells.reshape(size, pool, size, pool).max(axis=(1, 3))
 
 
+@pytest.mark.parametrize("pool", [2, 3])  # 2, the default, has a loop of its own
 @pytest.mark.parametrize("with_layer", [False, True])
-def test_crop_kernel_matches_numpy_windows(with_layer: bool) -> None:
+def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
     rng = np.random.default_rng(7)
     own = rng.choice(
         np.array([-1, 0, 10, 50, 100], np.int8), size=(40, 50), p=[0.5, 0.2, 0.1, 0.1, 0.1]
     )
     layer = rng.choice(np.array([-1, 0, 100], np.int8), size=(30, 30)) if with_layer else None
     for start in [(-5, -7), (10, 12), (40, 30), (-40, -40)]:
-        expected = numpy_crop(own, (3, -2), layer, (20, 15), start, 8, 3)
+        expected = numpy_crop(own, (3, -2), layer, (20, 15), start, 8, pool)
         ours = crop_max_pool(
             own, 3, -2, layer if layer is not None else np.zeros((0, 0), np.int8), 20, 15,
-            start[0], start[1], 8, 3,
+            start[0], start[1], 8, pool,
         )  # fmt: skip
         np.testing.assert_array_equal(ours, expected)

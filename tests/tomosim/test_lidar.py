@@ -136,6 +136,20 @@ def test_scan_draws_are_reproducible() -> None:
     assert np.all(np.abs(edge - 3.0) < 6 * LidarConfig().range_noise_std)
 
 
+@pytest.mark.parametrize("robots", [1, 2, 6])
+def test_team_scans_are_the_scans_of_each_robot_in_turn(robots: int) -> None:
+    world = generate_floorplan(4)
+    poses = world.sample_free_poses(robots, clearance=0.4, min_separation=0.9, rng=robots)
+    lidar = Lidar(LidarConfig(dropout_probability=0.05), world.walls)
+    team = lidar.scans(poses, radius=0.2, rngs=[np.random.default_rng(k) for k in range(robots)])
+    for k, pose in enumerate(poses):
+        others = np.delete(poses[:, :2], k, axis=0)
+        alone = lidar.scan(pose, rng=np.random.default_rng(k), others=others, other_radii=0.2)
+        np.testing.assert_array_equal(team[k].ranges, alone.ranges)
+    with pytest.raises(ValueError, match="one generator per pose"):
+        lidar.scans(poses, radius=0.2, rngs=[])
+
+
 def test_config_is_validated() -> None:
     with pytest.raises(ValueError, match="beams"):
         LidarConfig(beams=1)

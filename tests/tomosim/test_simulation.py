@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 
 import numpy as np
 import pytest
@@ -98,6 +99,21 @@ def test_odometry_noise_scales_with_motion() -> None:
 def test_compose_inverts_relative_motion() -> None:
     a, b = np.array([1.0, -2.0, 2.5]), np.array([-0.5, 3.0, -2.9])
     np.testing.assert_allclose(compose(a, relative_motion(a, b)), b, atol=1e-12)
+
+
+def test_odometry_update_is_the_noisy_relative_motion_composed() -> None:
+    config = OdometryConfig(translation_noise=0.05, rotation_noise=0.02, drift_per_metre=0.01)
+    rng = np.random.default_rng(3)
+    path = np.cumsum(rng.normal(0.0, 0.1, (40, 3)), axis=0) + np.array([1.0, -2.0, 3.0])
+    odometry = Odometry(config, path[0], np.random.default_rng(9))
+    draws = np.random.default_rng(9)  # the same stream, for the array formulas
+    pose = np.zeros(3)
+    for before, after in itertools.pairwise(path):
+        dx, dy, dtheta = relative_motion(before, after)
+        distance = np.hypot(dx, dy)
+        sigma = np.array([0.05 * distance, 0.05 * distance, 0.02 * abs(dtheta) + 0.01 * distance])
+        pose = compose(pose, np.array([dx, dy, dtheta]) + sigma * draws.standard_normal(3))
+        np.testing.assert_array_equal(odometry.update(after), pose)  # the same numbers
 
 
 def test_maps_are_in_each_robots_start_frame(world: World) -> None:

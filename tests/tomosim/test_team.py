@@ -235,6 +235,7 @@ def test_team_coverage_matches_the_evaluation_rule(world: World, incremental: bo
             gained = cover.update([sim.grid(k) for k in range(2)])
         total_area += float(gained.sum())
         area = cover.fraction * cover.total * cover.cell_area
+        assert cover.fraction == np.count_nonzero(cover.team_known) / cover.total  # kept count
         assert float(gained.sum()) == pytest.approx(area - previous, abs=1e-9)
         previous = area
     grids = [sim.grid(k) for k in range(2)]

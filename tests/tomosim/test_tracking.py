@@ -90,3 +90,69 @@ def test_searches_are_collected_later_with_their_results() -> None:
     failing = WorkerSearches().submit(grid, grid, method="no such method", seed=1)
     with pytest.raises(ValueError, match="unknown merging method"):
         failing.result(timeout=120)
+
+
+def test_a_waiting_caller_runs_the_searches_the_worker_has_not_started() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    inline = [
+        InlineSearches().submit(grid, grid, method="tomographic", seed=seed).result()
+        for seed in range(4)
+    ]
+    worker = WorkerSearches()
+    jobs = [worker.submit(grid, grid, method="tomographic", seed=seed) for seed in range(4)]
+    # The worker runs one search at a time: waiting for the first, this process runs
+    # later ones the worker has not started (which, depends on timing), and wherever
+    # a search ran, its result is the same.
+    first = worker.wait(jobs[0], jobs[1:])
+    assert first.confidence == inline[0].confidence
+    for job, expected in zip(jobs[1:], inline[1:], strict=True):
+        np.testing.assert_array_equal(worker.wait(job, []).matrix, expected.matrix)
+    failing = worker.submit(grid, grid, method="no such method", seed=1)
+    with pytest.raises(ValueError, match="unknown merging method"):
+        worker.wait(failing, [])
+
+
+def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from concurrent.futures import Future
+
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from tomosim.team import worker as worker_module
+
+    def overflowing(*args: object, **kwargs: object) -> MergeResult:
+        np.exp(np.float64(1000.0))  # a RuntimeWarning: an error under this suite's filters
+        return MergeResult(np.eye(3), 0.0, False, "tomographic")
+
+    monkeypatch.setattr(worker_module, "estimate_transform", overflowing)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    taken: Future[MergeResult] = Future()
+    with pytest.warns(RuntimeWarning, match="overflow"):
+        worker_module._search((grid, grid, "tomographic", 1), taken, as_worker=True)
+    assert taken.exception() is None and not taken.result().accepted
+
+
+def test_searches_fail_rather_than_hang_once_the_worker_has_ended(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from tomosim.team import worker as worker_module
+
+    own = worker_module._Worker()  # a worker of this test's own, not the shared one
+    monkeypatch.setattr(WorkerSearches, "_worker", own)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    own.process.kill()
+    own.process.wait(timeout=60)
+    searches_ = WorkerSearches()
+    for seed in range(3):  # sent, waiting, or submitted after the end: each one fails
+        job = searches_.submit(grid, grid, method="tomographic", seed=seed)
+        with pytest.raises(RuntimeError, match="worker ended"):
+            job.result(timeout=60)
+    for pipe in (own.process.stdin, own.process.stdout):
+        assert pipe is not None
+        pipe.close()

@@ -16,6 +16,34 @@ from tomosim.kernels.jit import kernel
 
 
 @kernel
+def fill_window(
+    window: NDArray[np.int8],
+    cells: NDArray[np.int8],
+    first_row: int,
+    first_col: int,
+    unknown_only: bool,
+) -> None:
+    """Copy into ``window`` the cells of ``cells`` it covers; its cell ``(0, 0)`` is
+    ``cells[first_row, first_col]`` (which may lie off ``cells``). With
+    ``unknown_only``, only window cells still unknown (negative) are written."""
+    window_rows, window_cols = window.shape
+    rows, cols = cells.shape
+    r0, r1 = max(first_row, 0), min(first_row + window_rows, rows)
+    c0, c1 = max(first_col, 0), min(first_col + window_cols, cols)
+    if r0 >= r1 or c0 >= c1:
+        return
+    for r in range(r0, r1):
+        source = cells[r, c0:c1]
+        target = window[r - first_row, c0 - first_col : c1 - first_col]
+        if unknown_only:
+            for k in range(source.shape[0]):
+                value = target[k]
+                target[k] = value if value >= 0 else source[k]
+        else:
+            target[:] = source
+
+
+@kernel
 def crop_max_pool(
     own: NDArray[np.int8],
     own_a: int,
@@ -47,27 +75,28 @@ def crop_max_pool(
     (size, size) int8 ndarray
         Row ``i``, column ``j`` covers fine rows ``i * pool ...``, columns ``j * pool ...``.
     """
-    out = np.full((size, size), -1, dtype=np.int8)
-    rows, cols = own.shape
-    layer_rows, layer_cols = layer.shape
-    for i in range(size):
-        for di in range(pool):
-            b = start_b + i * pool + di
-            r = b - own_b
-            lr = b - layer_b
+    # 1. The fine window, by row slices: own cells, then the layer's where own are unknown.
+    fine = size * pool
+    window = np.full((fine, fine), np.int8(-1))
+    fill_window(window, own, start_b - own_b, start_a - own_a, False)
+    fill_window(window, layer, start_b - layer_b, start_a - layer_a, True)
+    # 2. The maximum of each block (pairs of rows and columns spelt out for the default).
+    out = np.empty((size, size), dtype=np.int8)
+    if pool == 2:
+        for i in range(size):
+            upper = window[2 * i]
+            lower = window[2 * i + 1]
+            row = out[i]
             for j in range(size):
-                best = out[i, j]
+                row[j] = max(
+                    max(upper[2 * j], upper[2 * j + 1]), max(lower[2 * j], lower[2 * j + 1])
+                )
+        return out
+    for i in range(size):
+        for j in range(size):
+            best = np.int8(-1)
+            for di in range(pool):
                 for dj in range(pool):
-                    a = start_a + j * pool + dj
-                    value = -1
-                    c = a - own_a
-                    if 0 <= r < rows and 0 <= c < cols:
-                        value = own[r, c]
-                    if value < 0:
-                        lc = a - layer_a
-                        if 0 <= lr < layer_rows and 0 <= lc < layer_cols:
-                            value = layer[lr, lc]
-                    if value > best:
-                        best = value
-                out[i, j] = best
+                    best = max(best, window[i * pool + di, j * pool + dj])
+            out[i, j] = best
     return out

@@ -136,3 +136,63 @@ def add_noise(
         if uniforms[k] < dropout_probability:
             value = np.nan
         ranges[k] = value
+
+
+@kernel
+def scan_team(
+    poses: NDArray[np.float64],
+    first_angle: float,
+    increment: float,
+    count: int,
+    segments: NDArray[np.float64],
+    radius: float,
+    max_range: float,
+    normals: NDArray[np.float64],
+    uniforms: NDArray[np.float64],
+    noise_std: float,
+    dropout_probability: float,
+) -> NDArray[np.float64]:
+    """A noisy scan from every robot of a team, each seeing the others as circles.
+
+    Robot ``k``'s scan is :func:`cast_scan` from ``poses[k]`` (its first beam
+    at ``poses[k, 2] + first_angle``) with the other robots, in index order,
+    as circles of ``radius``, then :func:`add_noise` with ``normals[k]`` and
+    ``uniforms[k]``.
+
+    Parameters
+    ----------
+    poses : (N, 3) float ndarray
+        True poses ``(x, y, theta)``.
+    normals, uniforms : (N, B) float ndarray
+        Each robot's noise draws.
+
+    Returns
+    -------
+    (N, B) float ndarray
+        The scans' ranges.
+    """
+    robots = poses.shape[0]
+    out = np.empty((robots, count))
+    centres = np.empty((robots - 1, 2))
+    radii = np.full(robots - 1, radius)
+    for k in range(robots):
+        seen = 0
+        for other in range(robots):
+            if other != k:
+                centres[seen, 0] = poses[other, 0]
+                centres[seen, 1] = poses[other, 1]
+                seen += 1
+        ranges = cast_scan(
+            poses[k, 0],
+            poses[k, 1],
+            poses[k, 2] + first_angle,
+            increment,
+            count,
+            segments,
+            centres,
+            radii,
+            max_range,
+        )
+        add_noise(ranges, normals[k], uniforms[k], noise_std, dropout_probability, max_range)
+        out[k] = ranges
+    return out

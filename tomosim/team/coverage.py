@@ -13,16 +13,19 @@ unknown again.
 A robot's counted truth cells are indexed by the lattice cell of its map
 frame they fall in (:mod:`tomosim.team.sharing` defines the lattice), so that
 a map cell observed for the first time reveals exactly the truth cells under
-it (:func:`tomosim.kernels.coverage.reveal_cells`): a step costs in
-proportion to the cells it observed first, which :class:`~tomosim.mapping.LogOddsMap`
-journals, not to the size of the grids. :meth:`TeamCoverage.update` takes
-whole grids instead (any grids, at any time; it looks at every known cell).
+it (:func:`tomosim.kernels.coverage.reveal_cells`; one compiled call does
+all robots of a step, :func:`~tomosim.kernels.coverage.reveal_team`): a step
+costs in proportion to the cells it observed first, which
+:class:`~tomosim.mapping.LogOddsMap` journals, not to the size of the grids.
+:meth:`TeamCoverage.update` takes whole grids instead (any grids, at any time;
+it looks at every known cell).
 The cells the team knows for the first time at a step are credited to the
 robots that newly know them, shared equally when several do at the same step.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -31,40 +34,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 from tomosim.frames import pose_matrix
-from tomosim.kernels.coverage import reveal_cells
+from tomosim.kernels.coverage import reveal_team
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
 
 
-class _Lookup:
-    """One robot's counted truth cells, keyed by their lattice cell in its map frame."""
-
-    __slots__ = ("count", "keys", "known", "members", "origin", "width")
-
-    def __init__(self, lattice: NDArray[np.int64]) -> None:
-        low = lattice.min(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
-        high = lattice.max(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
-        self.origin = (int(low[0]), int(low[1]))
-        self.width = int(high[0] - low[0]) + 1
-        keys = (lattice[:, 1] - low[1]) * self.width + (lattice[:, 0] - low[0])
-        self.members = np.argsort(keys, kind="stable").astype(np.int64)
-        self.keys = np.ascontiguousarray(keys[self.members], dtype=np.int64)
-        self.known = np.zeros(len(lattice), dtype=bool)
-        self.count = 0
-
-    def reveal(self, cells: NDArray[np.int64]) -> NDArray[np.int64]:
-        """Mark and return the truth cells under the lattice ``cells`` ``(K, 2)`` not yet known."""
-        newly = reveal_cells(
-            np.ascontiguousarray(cells, dtype=np.int64),
-            self.origin[0],
-            self.origin[1],
-            self.width,
-            self.keys,
-            self.members,
-            self.known,
-        )
-        self.count += len(newly)
-        return newly
+def _lattice_keys(
+    lattice: NDArray[np.int64],
+) -> tuple[tuple[int, int], int, NDArray[np.int64], NDArray[np.int64]]:
+    """One robot's counted truth cells keyed by their lattice cell in its map frame:
+    the lattice origin and width of the keys, the sorted keys, and the truth cell of
+    each (:func:`tomosim.kernels.coverage.reveal_cells`)."""
+    low = lattice.min(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
+    high = lattice.max(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
+    width = int(high[0] - low[0]) + 1
+    keys = (lattice[:, 1] - low[1]) * width + (lattice[:, 0] - low[0])
+    members = np.argsort(keys, kind="stable").astype(np.int64)
+    return (int(low[0]), int(low[1])), width, keys[members], members
 
 
 class TeamCoverage:
@@ -91,7 +77,20 @@ class TeamCoverage:
         Which counted cells (in ``np.nonzero(region)`` order) the team knows.
     """
 
-    __slots__ = ("_robots", "cell_area", "region", "team_known", "total")
+    __slots__ = (
+        "_finders",
+        "_keys",
+        "_known",
+        "_members",
+        "_origins",
+        "_robot_counts",
+        "_team_count",
+        "_widths",
+        "cell_area",
+        "region",
+        "team_known",
+        "total",
+    )
 
     def __init__(self, world: World, start_poses: ArrayLike, *, resolution: float) -> None:
         starts = np.asarray(start_poses, dtype=float)
@@ -104,21 +103,36 @@ class TeamCoverage:
         rows, cols = np.nonzero(self.region)
         self.total = len(rows)
         points = world.truth.cell_to_world(np.column_stack([cols, rows]))
-        self._robots: list[_Lookup] = []
-        for start in starts:
+        robots = len(starts)
+        # Per robot, its counted truth cells keyed by lattice cell (reveal_team's arguments).
+        self._origins = np.zeros((robots, 2), dtype=np.int64)
+        self._widths = np.zeros(robots, dtype=np.int64)
+        self._keys = np.zeros((robots, self.total), dtype=np.int64)
+        self._members = np.zeros((robots, self.total), dtype=np.int64)
+        for k, start in enumerate(starts):
             frame = np.linalg.inv(pose_matrix(start))
             local = points @ frame[:2, :2].T + frame[:2, 2]
-            self._robots.append(_Lookup(np.floor(local / resolution).astype(np.int64)))
+            origin, width, keys, members = _lattice_keys(
+                np.floor(local / resolution).astype(np.int64)
+            )
+            self._origins[k] = origin
+            self._widths[k] = width
+            self._keys[k] = keys
+            self._members[k] = members
+        self._known = np.zeros((robots, self.total), dtype=bool)
+        self._robot_counts = np.zeros(robots, dtype=np.int64)
         self.team_known = np.zeros(self.total, dtype=bool)
+        self._team_count = 0
+        self._finders = np.zeros(self.total, dtype=np.int32)  # reveal_team's scratch
 
     @property
     def fraction(self) -> float:
         """Fraction of the counted free cells the team knows (0 when there are none)."""
-        return float(np.count_nonzero(self.team_known)) / self.total if self.total else 0.0
+        return self._team_count / self.total if self.total else 0.0
 
     def robot_fraction(self, robot: int) -> float:
         """Fraction of the counted free cells robot ``robot`` knows."""
-        return self._robots[robot].count / self.total if self.total else 0.0
+        return int(self._robot_counts[robot]) / self.total if self.total else 0.0
 
     def update(self, grids: Sequence[OccupancyGrid]) -> NDArray[np.float64]:
         """Take in the robots' whole grids; returns the square metres each discovered.
@@ -134,8 +148,8 @@ class TeamCoverage:
         (N,) float ndarray
             As :meth:`reveal`.
         """
-        if len(grids) != len(self._robots):
-            raise ValueError(f"expected {len(self._robots)} grids, got {len(grids)}")
+        if len(grids) != len(self._widths):
+            raise ValueError(f"expected {len(self._widths)} grids, got {len(grids)}")
         cells = []
         for grid in grids:
             a0, b0 = grid_anchor(grid)
@@ -160,19 +174,32 @@ class TeamCoverage:
             the first time, credited as in the module docstring; the entries
             sum to the growth of the team's known area.
         """
-        if len(cells) != len(self._robots):
-            raise ValueError(f"expected cells of {len(self._robots)} robots, got {len(cells)}")
-        fresh = []
-        for lookup, observed in zip(self._robots, cells, strict=True):
-            lattice = np.asarray(observed, dtype=np.int64).reshape(-1, 2)
-            newly = lookup.reveal(lattice)
-            fresh.append(newly[~self.team_known[newly]])
+        robots = len(self._widths)
+        if len(cells) != robots:
+            raise ValueError(f"expected cells of {robots} robots, got {len(cells)}")
+        lattices = [np.asarray(observed, dtype=np.int64).reshape(-1, 2) for observed in cells]
+        starts = np.array([0, *itertools.accumulate(len(lattice) for lattice in lattices)])
+        found, found_starts, newly, shared = reveal_team(
+            np.ascontiguousarray(np.concatenate(lattices)),
+            starts,
+            self._origins,
+            self._widths,
+            self._keys,
+            self._members,
+            self._known,
+            self._robot_counts,
+            self.team_known,
+            self._finders,
+        )
+        self._team_count += newly
+        if not shared:  # every cell has one finder: credit is the count, exactly
+            found_counts = (found_starts[1:] - found_starts[:-1]).astype(np.float64)
+            return found_counts * self.cell_area
+        fresh = [found[found_starts[k] : found_starts[k + 1]] for k in range(robots)]
         finders = np.zeros(self.total, dtype=np.int32)
-        for found in fresh:
-            finders[found] += 1
-        credit = np.array([float(np.sum(1.0 / finders[found])) for found in fresh])
-        for found in fresh:
-            self.team_known[found] = True
+        for found_k in fresh:
+            finders[found_k] += 1
+        credit = np.array([float(np.sum(1.0 / finders[found_k])) for found_k in fresh])
         return credit * self.cell_area
 
     def known_mask(self) -> NDArray[np.bool_]:

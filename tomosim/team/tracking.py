@@ -95,7 +95,10 @@ class TrackingEstimator:
         state = self._pairs.setdefault((first, second), _PairState())
         found = None
         if state.pending is not None:  # 1. last round's search
-            found = state.pending.result()
+            # The pairs after this one collect theirs at this round too: while the
+            # worker finishes one, this process may run the others it has not started.
+            later = [s.pending for k, s in sorted(self._pairs.items()) if k > (first, second)]
+            found = self._searches.wait(state.pending, [f for f in later if f is not None])
             state.pending = None
             state.last = found
         starts = [] if state.tracked is None else [state.tracked]

@@ -17,6 +17,12 @@ a process that may be a pool's worker itself, with its queues and threads
 (``fork``), and a pool's worker waits at exit for children it did not
 start. One worker serves every session of a process; it is started on first
 use and ends when its input closes (when this process exits).
+
+A search the worker has not started when its result is wanted is run by the
+caller itself (:meth:`WorkerSearches.wait`), as are the other searches the
+caller needs at the same round, while the worker finishes the one it has:
+the caller would otherwise wait idle, and the results are the same wherever
+a search runs.
 """
 
 from __future__ import annotations
@@ -26,6 +32,9 @@ import pickle
 import subprocess
 import sys
 import threading
+import time
+import warnings
+from collections.abc import Sequence
 from concurrent.futures import Future
 from typing import Any, Protocol
 
@@ -43,6 +52,35 @@ class Searches(Protocol):
         """Start ``estimate_transform(first, second, method=method, rng=seed)``."""
         ...
 
+    def wait(
+        self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]
+    ) -> MergeResult:
+        """The result of ``search``; ``others`` are searches the caller needs next, which
+        it may run meanwhile rather than sit idle."""
+        ...
+
+
+def _search(
+    job: tuple[OccupancyGrid, OccupancyGrid, str, int],
+    future: Future[MergeResult],
+    *,
+    as_worker: bool = False,
+) -> None:
+    """Run a search job ``(first, second, method, seed)`` here, into ``future``.
+
+    ``as_worker``: under the worker's warning filters, Python's defaults (a warning
+    is shown, never raised), whatever this process's are, so that a search taken
+    back from the worker ends as it would have there.
+    """
+    first, second, method, seed = job
+    with warnings.catch_warnings():
+        if as_worker:
+            warnings.resetwarnings()
+        try:
+            future.set_result(estimate_transform(first, second, method=method, rng=seed))
+        except Exception as error:  # handed to the caller, as the worker does
+            future.set_exception(error)
+
 
 class InlineSearches:
     """Runs each search at once, in this process; the result waits in a done future."""
@@ -52,12 +90,35 @@ class InlineSearches:
     ) -> Future[MergeResult]:
         """Run the search now (see :class:`Searches`)."""
         future: Future[MergeResult] = Future()
-        future.set_result(estimate_transform(first, second, method=method, rng=seed))
+        _search((first, second, method, seed), future)
         return future
+
+    def wait(
+        self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]
+    ) -> MergeResult:
+        """The result (done already; see :class:`Searches`)."""
+        return search.result()
+
+
+class _Job(Future[MergeResult]):
+    """A search handed to the worker, known by its number."""
+
+    def __init__(self, number: int) -> None:
+        super().__init__()
+        self.number = number
 
 
 class _Worker:
-    """The worker process of this process, and a thread that reads its answers."""
+    """The worker process of this process, a thread that writes it the jobs and one that
+    reads its answers.
+
+    Jobs wait in a queue until the worker is idle, and only then does the writing
+    thread send it the next (a job, two grids, is larger than a pipe holds, so
+    writing it would block until the worker read it): the caller, stepping a
+    simulation meanwhile, never waits for the pipe, and a job the worker has not
+    started can still be taken back (:meth:`take`) and run by a caller that would
+    otherwise wait idle for it.
+    """
 
     def __init__(self) -> None:
         self.process = subprocess.Popen(
@@ -66,23 +127,68 @@ class _Worker:
             stdout=subprocess.PIPE,
         )
         self.pid = os.getpid()
-        self.lock = threading.Lock()
-        self.futures: dict[int, Future[MergeResult]] = {}
+        self.lock = threading.Condition()
+        self.futures: dict[int, _Job] = {}  # sent to the worker, not answered yet
+        self.queued: dict[int, tuple[_Job, tuple[Any, ...]]] = {}  # not sent yet, in order
         self.next_job = 0
+        self.ended: RuntimeError | None = None  # set once the worker is known to have ended
+        writer = threading.Thread(target=self._write, name="merge-search-jobs", daemon=True)
+        writer.start()
         reader = threading.Thread(target=self._read, name="merge-search-results", daemon=True)
         reader.start()
 
-    def submit(self, job: tuple[Any, ...]) -> Future[MergeResult]:
-        future: Future[MergeResult] = Future()
+    def submit(self, job: tuple[Any, ...]) -> _Job:
+        with self.lock:
+            future = _Job(self.next_job)
+            self.next_job += 1
+            if self.ended is None:
+                self.queued[future.number] = (future, job)
+                self.lock.notify_all()
+                return future
+        future.set_exception(self.ended)
+        return future
+
+    def _end(self) -> None:
+        """The worker has ended: fail every job sent or waiting, and every later one."""
+        with self.lock:
+            self.ended = RuntimeError(
+                f"the merge search worker ended (exit status {self.process.poll()})"
+            )
+            failed = [*self.futures.values(), *(f for f, _ in self.queued.values())]
+            self.futures.clear()
+            self.queued.clear()
+            self.lock.notify_all()
+        for future in failed:
+            if not future.done():
+                future.set_exception(self.ended)
+
+    def take(self, future: Future[MergeResult]) -> tuple[Any, ...] | None:
+        """Take back a job the worker has not been sent; None if it has (or was taken)."""
+        if not isinstance(future, _Job):
+            return None
+        with self.lock:
+            entry = self.queued.pop(future.number, None)
+        return None if entry is None else entry[1]
+
+    def _write(self) -> None:
         stdin = self.process.stdin
         assert stdin is not None  # opened as a pipe
-        with self.lock:
-            number = self.next_job
-            self.next_job += 1
-            self.futures[number] = future
-            pickle.dump((number, *job), stdin, protocol=pickle.HIGHEST_PROTOCOL)
-            stdin.flush()
-        return future
+        while True:
+            with self.lock:
+                # Wait while the worker is busy, or idle for lack of jobs.
+                while self.ended is None and (self.futures or not self.queued):
+                    self.lock.wait()
+                if self.ended is not None:
+                    return
+                number = next(iter(self.queued))
+                future, job = self.queued.pop(number)
+                self.futures[number] = future
+            try:
+                stdin.write(pickle.dumps((number, *job), protocol=pickle.HIGHEST_PROTOCOL))
+                stdin.flush()
+            except OSError:  # the worker ended
+                self._end()
+                return
 
     def _read(self) -> None:
         stdout = self.process.stdout
@@ -91,16 +197,11 @@ class _Worker:
             try:
                 number, ok, value = pickle.load(stdout)
             except (EOFError, OSError, pickle.UnpicklingError):
-                error = RuntimeError(
-                    f"the merge search worker ended (exit status {self.process.poll()})"
-                )
-                with self.lock:
-                    for future in self.futures.values():
-                        future.set_exception(error)
-                    self.futures.clear()
+                self._end()
                 return
             with self.lock:
                 future = self.futures.pop(number)
+                self.lock.notify_all()
             if ok:
                 future.set_result(value)
             else:
@@ -108,9 +209,18 @@ class _Worker:
 
 
 class WorkerSearches:
-    """Runs searches in this process's worker process (module docstring)."""
+    """Runs searches in this process's worker process (module docstring).
+
+    Attributes
+    ----------
+    cpu_seconds_here : float
+        Class attribute: CPU seconds this process has spent on searches it took
+        back from the worker (:meth:`wait`); benchmarks subtract them to time the
+        simulation alone.
+    """
 
     _worker: _Worker | None = None
+    cpu_seconds_here: float = 0.0
 
     @classmethod
     def worker(cls) -> _Worker:
@@ -122,8 +232,29 @@ class WorkerSearches:
     def submit(
         self, first: OccupancyGrid, second: OccupancyGrid, *, method: str, seed: int
     ) -> Future[MergeResult]:
-        """Queue the search in the worker (see :class:`Searches`)."""
+        """Queue the search for the worker (see :class:`Searches`)."""
         return self.worker().submit((first, second, method, seed))
+
+    def wait(
+        self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]
+    ) -> MergeResult:
+        """The result of ``search`` (see :class:`Searches`).
+
+        Rather than wait idle, this process runs ``search`` itself if the worker
+        has not started it, and then each of ``others`` the worker has not
+        started, until ``search`` is done: the worker and this process then
+        share the searches the caller needs now.
+        """
+        worker = self.worker()
+        for candidate in (search, *others):
+            if search.done():
+                break
+            job = worker.take(candidate)
+            if job is not None:
+                clock = time.process_time()
+                _search(job, candidate, as_worker=True)
+                WorkerSearches.cpu_seconds_here += time.process_time() - clock
+        return search.result()
 
 
 def searches(*, worker: bool) -> Searches:
