@@ -11,8 +11,10 @@ Each baseline is called with the parallel environment after ``reset`` or
 
 :class:`FrontierBaseline` is **privileged**: it plans on each robot's whole
 best map (its own grid and its linked teammates'), not on the 64 x 64 window
-of the observation; its pose and scan are the observation's. It drives with
-:class:`tomosim.exploration.FrontierPolicy`, the policy of ``tomosim explore``.
+of the observation, and coordinates through the targets of the teammates a
+robot is linked to; its pose and scan are the observation's. It drives with
+:class:`tomosim.exploration.TeamExplorer` and the default policy of
+``tomosim explore`` (:data:`~tomosim.exploration.DEFAULT_POLICY`).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv
-from tomosim.exploration import FrontierPolicy
+from tomosim.exploration import DEFAULT_POLICY, TeamExplorer
 from tomosim.team import TeamSession
 
 
@@ -64,25 +66,28 @@ class ConstantBaseline:
 
 
 class FrontierBaseline:
-    """Frontier exploration on each robot's best map (privileged; module docstring)."""
+    """Frontier exploration on each robot's best map (privileged; module docstring).
 
-    def __init__(self) -> None:
+    Parameters
+    ----------
+    policy : str
+        The exploration policy (default that of ``tomosim explore``).
+    """
+
+    def __init__(self, policy: str = DEFAULT_POLICY) -> None:
+        self.policy = policy
         self._session: TeamSession | None = None
-        self._policies: list[FrontierPolicy] = []
+        self._explorer: TeamExplorer | None = None
 
     def __call__(self, env: MultiRobotExplorationEnv) -> dict[str, Any]:
-        """One command per live agent from its frontier policy."""
+        """One command per live agent from the team's frontier explorer."""
         session = env.session
         if session is None:
             raise RuntimeError("reset the environment before asking for actions")
-        if session is not self._session:  # a new episode: fresh policies
+        if session is not self._session or self._explorer is None:  # a new episode
             self._session = session
-            self._policies = [FrontierPolicy() for _ in range(session.count)]
-        sim = session.simulation
+            self._explorer = TeamExplorer(session.count, policy=self.policy)
+        commands = self._explorer.act(session).astype(np.float32)
         return {
-            agent: self._policies[k]
-            .act(sim.odometry[k].pose, session.best_map(k), scan=sim.scans[k])
-            .astype(np.float32)
-            for k, agent in enumerate(env.possible_agents)
-            if agent in env.agents
+            agent: commands[k] for k, agent in enumerate(env.possible_agents) if agent in env.agents
         }

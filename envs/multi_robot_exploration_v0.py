@@ -52,8 +52,9 @@ stands still. One step is 0.1 s of physics for all robots at once.
 
 Reward
 ------
-Each step, the free cells of the world (its largest connected free region)
-that the team knows for the first time, in square metres, credited to the
+Each step, the free cells of the world (its explorable space: the largest
+connected free region, strands narrower than 0.2 m left out) that the team
+knows for the first time, in square metres, credited to the
 robots whose maps now know them (shared equally when several do at once).
 The rewards of a step sum to the growth of the team's known area; they use
 the simulator's truth (start poses) and are not observable by the robots.

@@ -89,7 +89,7 @@ def plot(rows: list[dict[str, str]], methods: tuple[str, ...], robots: tuple[int
     axis.set_xticks(np.arange(len(robots)) + width * (len(methods) - 1) / 2)
     axis.set_xticklabels([f"{n} robots" for n in robots])
     axis.set_ylabel("simulated time to target [s]")
-    axis.set_title("median time to 90 % coverage (capped episodes count at the cap)")
+    axis.set_title("median time to 90 % coverage (capped episodes count at the cap)", fontsize=9)
     axis.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=100)

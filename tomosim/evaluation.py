@@ -42,13 +42,13 @@ def known_in_world(world: World, grid: OccupancyGrid, start_pose: ArrayLike) -> 
 
 
 def coverage(world: World, grid: OccupancyGrid, start_pose: ArrayLike) -> float:
-    """Fraction of the world's connected free space that ``grid`` has observed.
+    """Fraction of the world's explorable free space that ``grid`` has observed.
 
-    The free space counted is the largest 8-connected region of free truth
-    cells (:meth:`World.navigable` with no clearance), the region a robot
-    starting anywhere in it could map.
+    The free space counted is :attr:`World.explorable`: the largest
+    8-connected region of free truth cells, strands too thin to be space
+    left out.
     """
-    region = world.navigable(0.0)
+    region = world.explorable
     total = int(np.count_nonzero(region))
     if total == 0:
         return 0.0

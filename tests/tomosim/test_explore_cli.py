@@ -75,6 +75,12 @@ def test_review_reads_back_what_explore_reported(
                 assert back["translation_error_m"] == pair["translation_error_m"]
             else:
                 assert "rotation_error_deg" not in back
+    figures = review["exploration"]
+    assert figures["path_length_m"] == pytest.approx(report["path_length_m"])
+    assert figures["overlap_rate"] == pytest.approx(report["overlap_rate"])
+    assert figures["steps_to_target"] == report["steps_to_target"]
+    for seen_robot, ran_robot in zip(figures["robots"], report["robots"], strict=True):
+        assert seen_robot == pytest.approx(ran_robot)
     assert png.read_bytes()[:8] == PNG_SIGNATURE
 
 
@@ -88,6 +94,7 @@ def test_review_prints_the_timeline_and_final_figures(
     assert f"{'steps':<16}60" in out
     assert f"{report['coverage']:.3f}" in out
     assert "r0-r1" in out and "summary image" not in out
+    assert f"{report['path_length_m']:.1f} m" in out and "overlap rate" in out
 
 
 def test_explore_text_summary(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -110,6 +117,37 @@ def test_explore_text_summary(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert f"recording: {record}" in out
 
 
+def test_explore_reports_exploration_figures(explored: tuple[Path, dict]) -> None:
+    _, report = explored
+    robots = report["robots"]
+    assert len(robots) == 2 and report["settings"]["policy"] == "utility"
+    assert report["path_length_m"] == pytest.approx(sum(r["path_length_m"] for r in robots))
+    own = sum(r["coverage"] for r in robots)
+    assert report["overlap_rate"] == pytest.approx(own / report["coverage"] - 1.0)
+    curve = report["coverage_curve"]
+    assert curve["steps"][0] == 0 and curve["steps"][-1] == report["steps"]
+    assert curve["team"][-1] == pytest.approx(report["coverage"], abs=1e-5)
+    assert report["merge_stats"]["rounds"] == len(report["merges"])
+
+
+def test_explore_with_the_oracle_and_a_communication_range(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["explore", *SHORT_RUN, "--method", "oracle", "--comm-range", "4", "--line-of-sight"]
+    status, out, _ = run([*argv, "--record", str(tmp_path / "o.rrd"), "--json"], capsys)
+    assert status == 0
+    report = json.loads(out)
+    assert report["settings"]["method"] == "oracle"
+    assert report["settings"]["comm_range"] == 4.0 and report["settings"]["line_of_sight"]
+    for merge in report["merges"]:
+        for pair in merge["pairs"].values():
+            # Right wherever accepted; refused only when out of reach.
+            if pair["accepted"]:
+                assert pair["rotation_error_deg"] < 1e-6 and pair["translation_error_m"] < 1e-6
+            else:
+                assert "out of communication reach" in pair["reason"]
+
+
 def write_map(folder: Path, data: np.ndarray) -> Path:
     path = folder / "map.yaml"
     save_map(OccupancyGrid(data), path)
@@ -129,6 +167,9 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
         (["explore", "--world", "map.png"], ["--world must be a seed or a map_server .yaml"]),
         (["explore", "--coverage-target", "1.5"], ["--coverage-target"]),
         (["explore", "--seed", "-1"], ["--seed"]),
+        (["explore", "--policy", "greedy"], ["unknown policy 'greedy'", "utility"]),
+        (["explore", "--comm-range", "0"], ["--comm-range must be a positive number"]),
+        (["explore", "--line-of-sight"], ["--line-of-sight needs --comm-range"]),
         (["review", "run.txt"], [".rrd"]),
         (["review", "run.rrd", "--png", "a.png", "--no-png"], ["not both"]),
     ],

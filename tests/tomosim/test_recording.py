@@ -19,6 +19,7 @@ import rerun as rr
 from rerun.chunk import RrdReader
 
 from tomosim.episode import EpisodeConfig, run_episode
+from tomosim.episode.tracking import ExplorationTracker
 from tomosim.exploration import FrontierPolicy
 from tomosim.recording import (
     LiveViewer,
@@ -35,8 +36,13 @@ from tomosim.recording.paths import (
     COVERAGE,
     MERGED,
     MERGED_FRAME,
+    OVERLAP_RATE,
+    PATH_LENGTH_TOTAL,
+    PATH_LENGTHS,
     TRUTH,
     map_path,
+    path_length_path,
+    robot_coverage_path,
 )
 from tomosim.recording.recorder import crop_to_known
 from tomosim.recording.sinks import Sinks
@@ -105,8 +111,10 @@ def recorded(
     path = tmp_path_factory.mktemp("rec") / "run.rrd"
     coverage = [session.coverage.fraction]
     merges = []
+    tracker = ExplorationTracker(session)
     with Recorder.to_file(path, map_interval=MAP_INTERVAL) as recorder:
         recorder.log_start(session, {"world": world.name, "robots": 2})
+        recorder.log_figures(session, tracker.last)
         for _ in range(STEPS):
             sim = session.simulation
             commands = [
@@ -118,6 +126,7 @@ def recorded(
             if merge is not None:
                 merges.append(merge)
             recorder.log_step(session, merge)
+            recorder.log_figures(session, tracker.update(session))
         recorder.log_end(session, "step limit reached")
         recorder.log_end(session, "step limit reached")  # nothing changed: no second map copy
     return path, session, coverage, merges
@@ -149,7 +158,7 @@ def test_every_view_is_2d_or_a_chart_and_shows_recorded_entities(
     kinds = [view.kind for view in views]
     assert "3D" not in kinds
     assert kinds.count("2D") == 1 + 1 + 2  # the world, the merged map, two robots' maps
-    assert kinds.count("TimeSeries") == 4
+    assert kinds.count("TimeSeries") == 5
     for view in views:
         assert view.origin == "/", view
         selected: set[str] = set()
@@ -179,12 +188,15 @@ def test_views_follow_what_the_run_logs(
     held = held_entities(recorded[0])
     assert matched(rotation.contents[0], "/", held) == {"merge/rotation_error_deg/r0-r1"}
     team = views["Team (team/**)"]
-    assert matched(team.contents[0], "/", held) == {COVERAGE}
+    fractions = {COVERAGE, OVERLAP_RATE, robot_coverage_path(0), robot_coverage_path(1)}
+    lengths = {path_length_path(0), path_length_path(1), PATH_LENGTH_TOTAL}
+    assert matched(team.contents[0], "/", held) == fractions | lengths
+    assert team.contents[1] == f"- {PATH_LENGTHS}/**"  # metres would dwarf the fractions
+    assert matched(views["Path length [m]"].contents[0], "/", held) == lengths
     # a series logged later under team/ would show without touching the layout
-    assert matched(team.contents[0], "/", held | {"team/path_length_m/r0": set()}) == {
-        COVERAGE,
-        "team/path_length_m/r0",
-    }
+    assert "team/frontier_count" in matched(
+        team.contents[0], "/", held | {"team/frontier_count": set()}
+    )
 
 
 def test_a_run_without_merging_has_no_merge_views(tmp_path: Path) -> None:
@@ -195,11 +207,12 @@ def test_a_run_without_merging_has_no_merge_views(tmp_path: Path) -> None:
     run_episode(config)
     views = recorded_views(path)
     held = held_entities(path)
-    assert [v.kind for v in views].count("TimeSeries") == 1
+    assert [v.kind for v in views].count("TimeSeries") == 2
     assert [v.kind for v in views].count("2D") == 1 + 2
     for view in views:
         for rule in view.contents:
-            assert matched(rule, view.origin, held), (view.name, rule)
+            if rule.startswith("+ "):
+                assert matched(rule, view.origin, held), (view.name, rule)
 
 
 def test_series_read_back_equal_what_was_logged(

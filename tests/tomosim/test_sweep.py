@@ -37,18 +37,26 @@ def without_timing(rows: list[dict[str, str]]) -> list[dict[str, str]]:
 
 
 def test_plan_is_the_full_grid_in_a_fixed_order() -> None:
-    plan = SweepPlan(worlds=("0", "2"), robots=(2, 3), methods=("tomographic", "none"), seeds=(5,))
+    plan = SweepPlan(
+        worlds=("0", "2"),
+        robots=(2, 3),
+        policies=("nearest", "utility"),
+        methods=("tomographic", "none"),
+        seeds=(5,),
+    )
     keys = [e.key for e in plan.episodes()]
-    assert len(keys) == len(set(keys)) == 8
-    assert keys[0] == "0|2|tomographic|5" and keys[-1] == "2|3|none|5"
+    assert len(keys) == len(set(keys)) == 16
+    assert keys[0] == "0|2|nearest|tomographic|5" and keys[-1] == "2|3|utility|none|5"
     no_merge = [e.config for e in plan.episodes() if e.key.endswith("|none|5")]
     assert all(not config.merge for config in no_merge)
+    assert [e.config.policy for e in plan.episodes()][:4] == ["nearest"] * 2 + ["utility"] * 2
 
 
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [
         ("methods", ("nope",), "unknown merging method"),
+        ("policies", ("greedy",), "unknown exploration policy"),
         ("seeds", (), "at least one"),
         ("robots", (2, 2), "twice"),
     ],

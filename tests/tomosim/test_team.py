@@ -246,8 +246,7 @@ def test_team_coverage_matches_the_evaluation_rule(world: World, incremental: bo
     union = known_in_world(world, grids[0], sim.start_poses[0]) | known_in_world(
         world, grids[1], sim.start_poses[1]
     )
-    region = world.navigable(0.0)
-    np.testing.assert_array_equal(cover.known_mask(), union & region)
+    np.testing.assert_array_equal(cover.known_mask(), union & world.explorable)
     assert total_area == pytest.approx(previous, abs=1e-9)
 
 

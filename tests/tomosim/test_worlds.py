@@ -154,3 +154,27 @@ def test_real_map_becomes_a_world() -> None:
     truth_cells = np.rint(world.truth.world_to_cell(poses[:, :2])).astype(int)
     assert np.all(world.free[truth_cells[:, 1], truth_cells[:, 0]])
     assert np.all(distance_to_segments(poses[:, :2], world.walls) >= 0.3 - 0.05)
+
+
+def test_explorable_space_leaves_out_strands_too_thin_to_be_space() -> None:
+    res = 0.05
+    cells = np.full((60, 200), -1, dtype=np.int8)
+    cells[10:50, 10:50] = 0  # a 2 m square room
+    cells[25:37, 50:90] = 0  # a 0.6 m corridor leaving it
+    cells[30, 90:190] = 0  # a one-cell strand beyond: a mapping lidar's beam through a door
+    world = world_from_map(OccupancyGrid(cells, resolution=res))
+    explorable = world.explorable
+    # The strand is gone but for its first cell or two, where the corridor's disc reaches.
+    assert not explorable[30, 92:190].any()
+    room_and_corridor = np.zeros_like(explorable)
+    room_and_corridor[10:50, 10:50] = room_and_corridor[25:37, 50:92] = True
+    assert not np.any(explorable & ~room_and_corridor)
+    # Only corner cells, where a 0.2 m disc cannot reach, are lost (a few per corner).
+    assert explorable.sum() >= 0.97 * room_and_corridor.sum()
+    assert world.navigable(0.0)[30, 95:190].all()  # the strand is free space all the same
+
+
+def test_generated_floors_are_explorable_almost_everywhere(office: World) -> None:
+    free = office.navigable(0.0)
+    assert np.all(office.explorable <= free)
+    assert office.explorable.sum() >= 0.99 * free.sum()

@@ -1,8 +1,9 @@
 """``tomosim explore``: robots explore a world with periodic map merging, recorded for review.
 
-Runs one episode with the built-in frontier policy (:func:`tomosim.episode.run_episode`):
-three robots on the default generated floor plan, merging every 50 steps with
-the tomographic method, until the team knows 90 % of the free space. It shows
+Runs one episode of frontier exploration (:func:`tomosim.episode.run_episode`):
+three robots on the default generated floor plan, coordinated by the default
+policy, merging every 50 steps with the tomographic method, until the team
+knows 90 % of the free space. It shows
 progress (a bar on a terminal, a line every few seconds elsewhere), records
 the episode to an ``.rrd`` file, and ends with a summary: coverage, steps, and
 per pair the merges accepted and their errors against the simulator's truth
@@ -20,21 +21,23 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import sys
 import time
 from pathlib import Path
 
 from PIL import Image
 
-from merging import available_methods
 from merging.api import DEFAULT_METHOD
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore_report import render_summary
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
+from tomosim.exploration import chooser_names
 from tomosim.recording import LiveViewer, Recorder, RecordingError
 from tomosim.recording.sinks import DEFAULT_VIEWER_URL, DEFAULT_WEB_PORT
+from tomosim.team import ORACLE, team_methods
 from tomosim.worlds.world import NoRoomError
 
 NAME = "explore"
@@ -71,6 +74,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"number of robots, 1 to {MAX_ROBOTS} (default {DEFAULTS.robots})",
     )
     parser.add_argument(
+        "--policy",
+        default=DEFAULTS.policy,
+        help=f"how robots choose frontiers: {', '.join(chooser_names())} "
+        f"(default {DEFAULTS.policy})",
+    )
+    parser.add_argument(
         "--steps",
         type=int,
         default=DEFAULTS.steps,
@@ -86,9 +95,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--method",
         default=DEFAULT_METHOD,
-        help=f"merging method: {', '.join(available_methods())} (default {DEFAULT_METHOD})",
+        help=f"merging method: {', '.join(team_methods())}; {ORACLE} merges with the true "
+        f"start poses, the upper bound (default {DEFAULT_METHOD})",
     )
-    parser.add_argument("--no-merge", action="store_true", help="explore without merging")
+    parser.add_argument(
+        "--no-merge", action="store_true", help="explore without merging (the lower bound)"
+    )
+    parser.add_argument(
+        "--comm-range",
+        type=float,
+        default=None,
+        metavar="METRES",
+        help="robots exchange maps, poses and targets, and merge, only within this range, "
+        "directly or through teammates in range (default unlimited)",
+    )
+    parser.add_argument(
+        "--line-of-sight", action="store_true", help="walls block communication (with --comm-range)"
+    )
     parser.add_argument(
         "--coverage-target",
         type=float,
@@ -151,9 +174,16 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
     if not 0.0 < args.coverage_target <= 1.0:
         raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
-    if args.method not in available_methods():
-        choices = ", ".join(available_methods())
+    if args.method not in team_methods():
+        choices = ", ".join(team_methods())
         raise UsageError(f"unknown method {args.method!r}; choose one of: {choices}")
+    if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
+        raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
+    if args.line_of_sight and args.comm_range is None:
+        raise UsageError("--line-of-sight needs --comm-range")
+    if args.policy not in chooser_names():
+        choices = ", ".join(chooser_names())
+        raise UsageError(f"unknown policy {args.policy!r}; choose one of: {choices}")
     if args.record.suffix != ".rrd":
         raise UsageError(f"--record must name an .rrd file, got {args.record}")
     world: int | Path = int(args.world) if args.world.strip().isdigit() else Path(args.world)
@@ -162,11 +192,14 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
     return EpisodeConfig(
         world=world,
         robots=args.robots,
+        policy=args.policy,
         steps=args.steps,
         merge=not args.no_merge,
         merge_interval=args.merge_interval,
         method=args.method,
         coverage_target=args.coverage_target,
+        comm_range=args.comm_range,
+        line_of_sight=args.line_of_sight,
         seed=args.seed,
         record=None if args.no_record else args.record,
     )

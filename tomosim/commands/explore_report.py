@@ -3,7 +3,10 @@
 Both commands describe merge rounds the same way: per pair, how many of the
 rounds' estimates the merger accepted and how many were confirmed (and so
 used), and the rotation and translation errors of the accepted ones against
-the simulator's truth (:mod:`tomosim.team.quality`).
+the simulator's truth (:mod:`tomosim.team.quality`); and the exploration
+figures the same way (time to the target, path lengths, each robot's
+coverage, the overlap rate): from the episode's metrics for ``explore``, from
+the recording's ``team/`` series for ``review`` (:func:`recorded_figures`).
 """
 
 from __future__ import annotations
@@ -11,10 +14,18 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from tomosim.episode import EpisodeMetrics
+from tomosim.episode import EpisodeConfig, EpisodeMetrics
+from tomosim.recording import RecordedRun
+from tomosim.recording.paths import (
+    OVERLAP_RATE,
+    PATH_LENGTH_TOTAL,
+    path_length_path,
+    robot_coverage_path,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,6 +41,12 @@ class PairSummary:
     rounds: int
     accepted_errors: tuple[tuple[float, float], ...]
     confirmed_errors: tuple[tuple[float, float], ...]
+
+
+DEFAULT_TARGET = EpisodeConfig.coverage_target
+"""Coverage target assumed for a recording whose settings do not name one."""
+DEFAULT_DT = 0.1
+"""Simulated seconds per step assumed for a recording whose settings do not name them."""
 
 
 def summarise_pairs(
@@ -90,9 +107,14 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         f"merging every {s['merge_interval']} steps ({s['method']})" if s["merge"] else "no merging"
     )
     target = metrics.steps_to(float(s["coverage_target"]))
-    reached = "not reached" if target is None else f"reached at step {target}"
+    reached = (
+        "not reached"
+        if target is None
+        else f"reached at step {target}, {target * metrics.dt:.1f} s"
+    )
+    policy = f"{s['policy']} policy, " if "policy" in s else ""
     lines = [
-        f"world {s['world']}, {s['robots']} robots, {merging}, seed {s['seed']}",
+        f"world {s['world']}, {s['robots']} robots, {policy}{merging}, seed {s['seed']}",
         "",
         f"{'steps':<18}{metrics.steps} ({metrics.sim_seconds:.1f} s simulated, "
         f"{metrics.wall_seconds:.1f} s wall clock)",
@@ -100,6 +122,13 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         f"{'team coverage':<18}{metrics.coverage:.3f} "
         f"(target {s['coverage_target']:.2f} {reached})",
     ]
+    if metrics.path_lengths:
+        each = ", ".join(f"r{k} {p:.1f}" for k, p in enumerate(metrics.path_lengths))
+        own = ", ".join(f"r{k} {c:.2f}" for k, c in enumerate(metrics.robot_coverage))
+        lines += [
+            f"{'path length':<18}{metrics.path_length:.1f} m ({each})",
+            f"{'own coverage':<18}{own}; overlap rate {metrics.overlap_rate:.2f}",
+        ]
     if metrics.merges:
         rows = episode_rows(metrics)
         accepted = sum(1 for row in rows if row[1])
@@ -118,3 +147,56 @@ def render_summary(metrics: EpisodeMetrics) -> str:
     if metrics.record is not None:
         lines += ["", f"recording: {metrics.record} (view: rerun {metrics.record})"]
     return "\n".join(lines)
+
+
+def recorded_figures(run: RecordedRun) -> dict[str, Any]:
+    """The exploration figures of a recording (the time series under ``team/``): the step and
+    simulated seconds at which the coverage target was reached, and at the last step each
+    robot's coverage and path length, the team's path length and overlap rate."""
+    settings = run.settings
+    coverage = run.coverage
+    target = float(settings.get("coverage_target", DEFAULT_TARGET))
+    dt = float(settings.get("dt", DEFAULT_DT))
+    reached = np.flatnonzero(coverage.values >= target)
+    step = int(coverage.steps[reached[0]]) if len(reached) else None
+    robots = []
+    k = 0
+    while robot_coverage_path(k) in run.series:
+        robots.append(
+            {
+                "coverage": _finite(run.series[robot_coverage_path(k)].last()),
+                "path_length_m": _finite(run.series[path_length_path(k)].last()),
+            }
+        )
+        k += 1
+    total = run.series.get(PATH_LENGTH_TOTAL)
+    overlap = run.series.get(OVERLAP_RATE)
+    return {
+        "coverage_target": target,
+        "steps_to_target": step,
+        "seconds_to_target": None if step is None else round(step * dt, 6),
+        "path_length_m": None if total is None else _finite(total.last()),
+        "overlap_rate": None if overlap is None else _finite(overlap.last()),
+        "robots": robots,
+    }
+
+
+def render_figures(figures: dict[str, Any]) -> list[str]:
+    """Lines for the figures of :func:`recorded_figures`."""
+    step = figures["steps_to_target"]
+    target = figures["coverage_target"]
+    reached = (
+        "not reached" if step is None else f"step {step}, {figures['seconds_to_target']:.1f} s"
+    )
+    lines = [f"{'time to ' + f'{target:.0%}':<16}{reached}"]
+    if figures["path_length_m"] is not None:
+        each = ", ".join(f"r{k} {r['path_length_m']:.1f}" for k, r in enumerate(figures["robots"]))
+        lines.append(f"{'path length':<16}{figures['path_length_m']:.1f} m ({each})")
+    if figures["overlap_rate"] is not None:
+        own = ", ".join(f"r{k} {r['coverage']:.2f}" for k, r in enumerate(figures["robots"]))
+        lines.append(f"{'own coverage':<16}{own}; overlap rate {figures['overlap_rate']:.2f}")
+    return lines
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None

@@ -24,7 +24,12 @@ from pathlib import Path
 from typing import Any
 
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
-from tomosim.commands.explore_report import pair_table, summarise_pairs
+from tomosim.commands.explore_report import (
+    pair_table,
+    recorded_figures,
+    render_figures,
+    summarise_pairs,
+)
 from tomosim.recording import RecordedRun, read_recording
 from tomosim.recording.paths import AGREEMENT, STATUS_FINISHED, STATUS_RUNNING
 
@@ -112,6 +117,7 @@ def summary(run: RecordedRun) -> dict[str, Any]:
         "settings": run.settings,
         "steps": int(coverage.steps[-1]) if len(coverage.steps) else 0,
         "coverage": _number(coverage.last()),
+        "exploration": recorded_figures(run),
         "merges": timeline(run),
     }
 
@@ -161,6 +167,7 @@ def render(report: dict[str, Any]) -> str:
         "",
         f"{'steps':<16}{report['steps']}",
         f"{'team coverage':<16}{'-' if coverage is None else f'{coverage:.3f}'}",
+        *render_figures(report["exploration"]),
     ]
     if rows:
         accepted = sum(1 for r in rows if r[1])

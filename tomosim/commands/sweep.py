@@ -1,7 +1,8 @@
 """``tomosim sweep``: many seeded episodes over a grid of worlds, team sizes and methods.
 
-Every combination of ``--worlds``, ``--robots``, ``--methods`` and ``--seeds``
-is one episode of the built-in exploration (as ``tomosim explore`` runs it).
+Every combination of ``--worlds``, ``--robots``, ``--policies``, ``--methods``
+and ``--seeds`` is one episode of the built-in exploration (as ``tomosim
+explore`` runs it).
 Episodes run on a local process pool (``--executor process``, the default) or
 on Ray (``--executor ray``, ``pip install "tomosim[ray]"``; ``--ray-address``
 joins a running cluster, otherwise a local Ray is started). Each finished
@@ -19,23 +20,24 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from merging import available_methods
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore import MAX_ROBOTS
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped
+from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, run_sweep
+from tomosim.team import team_methods
 
 NAME = "sweep"
 """The subcommand's name."""
-HELP = "run many seeded episodes (worlds x robots x methods x seeds), locally or on Ray"
+HELP = "run many seeded episodes (worlds x robots x policies x methods x seeds), locally or on Ray"
 """One line for ``tomosim --help``."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the command's arguments on its subparser."""
     plan = SweepPlan()
-    methods = ", ".join([*available_methods(), NO_MERGE])
+    methods = ", ".join([*team_methods(), NO_MERGE])
     parser.add_argument(
         "--worlds", nargs="+", default=list(plan.worlds), metavar="WORLD",
         help="generated floor-plan seeds and/or map_server YAML files "
@@ -46,8 +48,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"team sizes, 1 to {MAX_ROBOTS} (default: {' '.join(map(str, plan.robots))})",
     )  # fmt: skip
     parser.add_argument(
+        "--policies", nargs="+", default=list(plan.policies), metavar="POLICY",
+        help=f"exploration policies: {', '.join(chooser_names())} (default: {DEFAULT_POLICY})",
+    )  # fmt: skip
+    parser.add_argument(
         "--methods", nargs="+", default=list(plan.methods), metavar="METHOD",
-        help=f"merging methods: {methods} ('{NO_MERGE}': merging off; "
+        help=f"merging methods: {methods} ('{NO_MERGE}': merging off, 'oracle': the true "
+        "start poses; "
         f"default: {' '.join(plan.methods)})",
     )  # fmt: skip
     parser.add_argument(
@@ -70,6 +77,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world-size", nargs=2, type=float, metavar=("WIDTH", "HEIGHT"),
         help="size in metres of generated floor plans (default 30 20)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--comm-range", type=float, metavar="METRES",
+        help="robots talk only within this range, or through teammates in range "
+        "(default unlimited)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--line-of-sight", action="store_true", help="walls block communication"
     )  # fmt: skip
     parser.add_argument(
         "--out", type=Path, required=True,
@@ -113,12 +128,15 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
         return SweepPlan(
             worlds=tuple(args.worlds),
             robots=tuple(args.robots),
+            policies=tuple(args.policies),
             methods=tuple(args.methods),
             seeds=tuple(args.seeds),
             steps=args.steps,
             merge_interval=args.merge_interval,
             coverage_target=args.coverage_target,
             world_size=None if args.world_size is None else tuple(args.world_size),
+            comm_range=args.comm_range,
+            line_of_sight=args.line_of_sight,
             record_dir=args.record_dir,
         )
     except ValueError as exc:

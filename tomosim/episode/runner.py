@@ -1,8 +1,9 @@
 """Running one episode with the built-in policy: ``run_episode(config) -> metrics``.
 
 :func:`run_episode` builds everything from an :class:`EpisodeConfig` (the
-world, a :class:`~tomosim.team.TeamSession`, one
-:class:`~tomosim.exploration.FrontierPolicy` per robot and, when asked, a
+world, a :class:`~tomosim.team.TeamSession`, a
+:class:`~tomosim.exploration.TeamExplorer` running the configured policy,
+an :class:`~tomosim.episode.tracking.ExplorationTracker` and, when asked, a
 recording) and runs until the first of
 
 * the team knows ``coverage_target`` of the world's free space,
@@ -11,8 +12,10 @@ recording) and runs until the first of
 
 Each step every robot acts on its pose estimate and its *best map*: its own
 grid, or, once merges link it to teammates, its own grid with the cells it has
-not observed filled in from theirs, in its frame (:mod:`tomosim.team.sharing`).
-The same configuration and seed always give the same episode.
+not observed filled in from theirs, in its frame (:mod:`tomosim.team.sharing`);
+a coordinated policy also uses its linked teammates' poses and targets
+(:mod:`tomosim.exploration.team`). The same configuration and seed always
+give the same episode.
 """
 
 from __future__ import annotations
@@ -21,11 +24,10 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from tomosim.episode.config import EpisodeConfig, load_world
 from tomosim.episode.metrics import EpisodeMetrics, MergeRound, odometry_drift
-from tomosim.exploration import FrontierPolicy
+from tomosim.episode.tracking import ExplorationTracker
+from tomosim.exploration import TeamExplorer
 from tomosim.team.session import TeamConfig, TeamSession
 
 if TYPE_CHECKING:
@@ -70,6 +72,7 @@ def run_episode(
         merge=config.merge,
         method=config.method,
         merge_interval=config.merge_interval,
+        comms=config.comms(),
         simulation=config.simulation,
     )
     session = TeamSession(world, robots=config.robots, config=team, rng=config.seed)
@@ -82,7 +85,7 @@ def run_episode(
     try:
         if recorder is not None:
             recorder.log_start(session, settings)
-        curve, merges, reason = _explore(session, config, recorder, progress)
+        tracker, merges, reason = _explore(session, config, recorder, progress)
         if recorder is not None:
             recorder.log_end(session, reason)
     finally:
@@ -94,12 +97,15 @@ def run_episode(
         sim_seconds=session.simulation.time,
         wall_seconds=time.perf_counter() - clock,
         coverage=session.coverage.fraction,
-        coverage_curve=tuple(curve),
+        coverage_curve=tuple(tracker.team_curve),
         stop_reason=reason,
         merges=tuple(merges),
         drift=odometry_drift(session),
         dt=session.config.simulation.dt,
         record=None if config.record is None else str(config.record),
+        robot_coverage_curves=tuple(tuple(curve) for curve in tracker.robot_curves),
+        path_lengths=tracker.path_lengths,
+        free_area=session.coverage.total * session.coverage.cell_area,
     )
 
 
@@ -108,35 +114,32 @@ def _explore(
     config: EpisodeConfig,
     recorder: Recorder | None,
     progress: Progress | None,
-) -> tuple[list[float], list[MergeRound], str]:
-    """The episode's loop: coverage after each step, the merge rounds, the stop reason."""
-    policies = [FrontierPolicy() for _ in range(session.count)]
-    curve = [session.coverage.fraction]
+) -> tuple[ExplorationTracker, list[MergeRound], str]:
+    """The episode's loop: the tracked figures, the merge rounds, the stop reason."""
+    explorer = TeamExplorer(session.count, policy=config.policy)
+    tracker = ExplorationTracker(session)
+    if recorder is not None:
+        recorder.log_figures(session, tracker.last)
     merges: list[MergeRound] = []
     reason = STOP_STEPS
     while session.steps < config.steps:
-        if curve[-1] >= config.coverage_target:
+        if tracker.team_curve[-1] >= config.coverage_target:
             reason = STOP_TARGET
             break
-        sim = session.simulation
-        commands = np.array(
-            [
-                policy.act(sim.odometry[k].pose, session.best_map(k), scan=sim.scans[k])
-                for k, policy in enumerate(policies)
-            ]
-        )
-        if all(policy.finished for policy in policies):
+        commands = explorer.act(session)
+        if explorer.finished:
             reason = STOP_FINISHED
             break
         merge = session.step(commands)
-        curve.append(session.coverage.fraction)
+        figures = tracker.update(session)
         if merge is not None:
             merges.append(MergeRound.of(merge, session))
         if recorder is not None:
             recorder.log_step(session, merge)
+            recorder.log_figures(session, figures)
         if progress is not None:
-            progress(session.steps, curve[-1])
+            progress(session.steps, figures.team_coverage)
     else:
-        if curve[-1] >= config.coverage_target:
+        if tracker.team_curve[-1] >= config.coverage_target:
             reason = STOP_TARGET
-    return curve, merges, reason
+    return tracker, merges, reason

@@ -1,4 +1,4 @@
-"""Frontier-based exploration: go to the nearest reachable frontier, repeat.
+"""Frontier-based exploration: choose a reachable frontier, drive there, repeat.
 
 Each call of :meth:`FrontierPolicy.act` returns one command. Every
 ``replan_interval`` steps, or when the current path is done, the policy
@@ -6,13 +6,18 @@ Each call of :meth:`FrontierPolicy.act` returns one command. Every
 1. builds the inflated planning grid of the map it is given
    (:mod:`~tomosim.exploration.planning`);
 2. runs a wavefront from the robot's cell;
-3. finds the frontier clusters (:mod:`~tomosim.exploration.frontiers`) and,
-   in each, the cell cheapest to reach;
-4. picks the cluster whose cell is cheapest to reach, less a bonus for its
-   size, and follows the path there (:mod:`~tomosim.exploration.controller`).
+3. finds the frontier clusters (:mod:`~tomosim.exploration.frontiers`) and
+   the cost of reaching each of their cells (the candidates of
+   :mod:`~tomosim.exploration.targets`);
+4. lets its *target chooser* pick a cell, from the candidates and what it
+   knows of its teammates (by default the nearest cluster, less a bonus for
+   its size; :data:`~tomosim.exploration.targets.CHOOSERS`), and follows the
+   path there (:mod:`~tomosim.exploration.controller`).
 
 The target is kept until it is reached or stops being a frontier, so that
-the robot does not dither between two frontiers of nearly equal cost. A robot
+the robot does not dither between two frontiers of nearly equal cost; a
+coordinated chooser also gives it up to a teammate that has taken a target
+within ``claim_radius`` of it and is nearer to it. A robot
 that barely moves for ``stuck_steps`` steps backs off for ``recovery_steps``
 steps; after :data:`MAX_FAILURES` such failures, or on reaching a target that
 is still a frontier, it abandons the target (frontier cells near it are not
@@ -28,6 +33,7 @@ map in another frame.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,6 +43,7 @@ from merging.grid import OccupancyGrid
 from tomosim.exploration.controller import ControllerConfig, PathFollower
 from tomosim.exploration.frontiers import frontier_clusters
 from tomosim.exploration.planning import PlannerConfig, PlanningGrid, Wavefront, planning_grid
+from tomosim.exploration.targets import Candidate, TargetChooser, Teammate, make_chooser
 from tomosim.lidar import Scan
 
 RECOVERY_COMMAND = (-0.3, 0.6)
@@ -72,6 +79,10 @@ class ExplorationConfig:
     start_search_radius : float
         How far (metres) to look for a passable cell when the robot's own cell
         is inside the inflated walls.
+    claim_radius : float
+        Metres: a coordinated robot gives up its target when a teammate
+        nearer to it has taken a target this close (the same frontier seen
+        on two maps lies a few cells apart).
     """
 
     planner: PlannerConfig = field(default_factory=PlannerConfig)
@@ -84,12 +95,19 @@ class ExplorationConfig:
     recovery_steps: int = 8
     blacklist_radius: float = 0.6
     start_search_radius: float = 1.0
+    claim_radius: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("min_frontier_size", "replan_interval", "stuck_steps"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
-        for name in ("size_bonus", "stuck_distance", "blacklist_radius", "start_search_radius"):
+        for name in (
+            "size_bonus",
+            "stuck_distance",
+            "blacklist_radius",
+            "start_search_radius",
+            "claim_radius",
+        ):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
         if self.recovery_steps < 0:
@@ -120,27 +138,36 @@ class FrontierPolicy:
     ----------
     config : ExplorationConfig, optional
         Defaults as documented there.
+    chooser : TargetChooser or str
+        The target chooser, or its name in
+        :data:`~tomosim.exploration.targets.CHOOSERS` (default ``"nearest"``).
     """
 
     __slots__ = (
         "_failures",
         "_history",
+        "_planning",
         "_recovery",
         "_since_plan",
+        "_wave",
         "blacklist",
+        "chooser",
         "config",
         "finished",
         "follower",
         "target",
     )
 
-    def __init__(self, config: ExplorationConfig | None = None) -> None:
+    def __init__(
+        self, config: ExplorationConfig | None = None, *, chooser: TargetChooser | str = "nearest"
+    ) -> None:
         self.config = config if config is not None else ExplorationConfig()
+        self.chooser = make_chooser(chooser) if isinstance(chooser, str) else chooser
         self.follower = PathFollower(self.config.controller)
         self.reset()
 
     def reset(self) -> None:
-        """Forget the path, the target and the abandoned targets."""
+        """Forget the path, the target, the abandoned targets and the last plan."""
         self.follower.set_path(np.zeros((0, 2)))
         self.target: NDArray[np.float64] | None = None
         self.blacklist: list[NDArray[np.float64]] = []
@@ -149,9 +176,16 @@ class FrontierPolicy:
         self._recovery = 0
         self._since_plan = 0
         self._failures = 0
+        self._planning: PlanningGrid | None = None
+        self._wave: Wavefront | None = None
 
     def act(
-        self, pose: ArrayLike, grid: OccupancyGrid, *, scan: Scan | None = None
+        self,
+        pose: ArrayLike,
+        grid: OccupancyGrid,
+        *,
+        scan: Scan | None = None,
+        teammates: Sequence[Teammate] = (),
     ) -> NDArray[np.float64]:
         """The normalised ``(linear, angular)`` command for this step.
 
@@ -163,15 +197,19 @@ class FrontierPolicy:
             The map to explore (the robot's own, or a merged one).
         scan : Scan, optional
             The latest scan, for the controller's guard against collisions.
+        teammates : sequence of Teammate
+            What the robot knows of its teammates, in the same frame (none:
+            it explores alone). Only coordinated choosers use it.
         """
         position = np.asarray(pose, dtype=float)
         if position.shape != (3,) or not np.all(np.isfinite(position)):
             raise ValueError(f"pose must be a finite (x, y, theta), got {pose!r}")
         cfg = self.config
+        mates = tuple(teammates) if self.chooser.coordinated else ()
         if self._recovery > 0:
             self._recovery -= 1
             if self._recovery == 0:
-                self._plan(position, grid, reached=False)
+                self._plan(position, grid, mates, reached=False)
             return np.array(RECOVERY_COMMAND)
         self._history.append(position[:2].copy())
         self._since_plan += 1
@@ -186,10 +224,22 @@ class FrontierPolicy:
             return np.array(RECOVERY_COMMAND) if self._recovery else np.zeros(2)
         reached = self.follower.done(position) and not self.finished
         if reached or self._since_plan >= cfg.replan_interval:
-            self._plan(position, grid, reached=reached)
+            self._plan(position, grid, mates, reached=reached)
         if self.finished:
             return np.zeros(2)
         return self.follower.command(position, scan)
+
+    def path_costs(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Metres of path from where the robot last planned to ``(K, 2)`` points of its frame.
+
+        From the wavefront of its latest plan (what a teammate is told);
+        ``inf`` where it knows no path, and everywhere before its first plan.
+        """
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        if self._planning is None or self._wave is None:
+            return np.full(len(pts), np.inf)
+        resolution = float(np.hypot(*self._planning.cell_to_frame[:2, 0]))
+        return self._wave.costs(self._planning.to_cells(pts)) * resolution
 
     def _is_stuck(self) -> bool:
         """Whether the robot covered less than ``stuck_distance`` over the last
@@ -200,24 +250,11 @@ class FrontierPolicy:
         travelled = float(np.sum(np.hypot(*np.diff(trail, axis=0).T)))
         return travelled < self.config.stuck_distance
 
-    def _plan(self, position: NDArray[np.float64], grid: OccupancyGrid, *, reached: bool) -> None:
-        """Steps 1-4: choose a frontier and set the path to it.
-
-        The current target is kept while frontier cells remain within
-        ``blacklist_radius`` of it and the robot has not yet reached it; a
-        target reached that is still a frontier cannot be resolved from there
-        and is abandoned.
-        """
+    def _candidates(self, planning: PlanningGrid, wave: Wavefront) -> list[Candidate]:
+        """Step 3: the reachable frontier clusters, abandoned targets' surroundings left out."""
         cfg = self.config
-        self._since_plan = 0
-        planning = planning_grid(grid, cfg.planner)
-        start = _start_cell(planning, position[:2], cfg.start_search_radius)
-        if start is None:
-            self._recovery = cfg.recovery_steps
-            return
-        wave = Wavefront(planning, start)
         resolution = float(np.hypot(*planning.cell_to_frame[:2, 0]))
-        candidates: list[tuple[float, NDArray[np.intp], NDArray[np.float64]]] = []
+        candidates = []
         for cluster in frontier_clusters(planning.state, min_size=cfg.min_frontier_size):
             cells = cluster.cells
             points = planning.to_frame(cells)
@@ -229,18 +266,47 @@ class FrontierPolicy:
             costs = wave.costs(cells)
             reachable = np.isfinite(costs)
             if np.any(reachable):
-                bonus = cfg.size_bonus * cluster.size
-                candidates.append((bonus, cells[reachable], points[reachable]))
-        choice = self._keep_target(candidates, wave, reached)
+                candidates.append(
+                    Candidate(
+                        cells[reachable],
+                        points[reachable],
+                        costs[reachable] * resolution,
+                        cluster.size * resolution,
+                    )
+                )
+        return candidates
+
+    def _plan(
+        self,
+        position: NDArray[np.float64],
+        grid: OccupancyGrid,
+        teammates: tuple[Teammate, ...],
+        *,
+        reached: bool,
+    ) -> None:
+        """Steps 1-4: choose a frontier and set the path to it.
+
+        The current target is kept while frontier cells remain within
+        ``blacklist_radius`` of it, the robot has not yet reached it and no
+        nearer teammate has taken it; a target reached that is still a
+        frontier cannot be resolved from there and is abandoned.
+        """
+        cfg = self.config
+        self._since_plan = 0
+        planning = planning_grid(grid, cfg.planner)
+        start = _start_cell(planning, position[:2], cfg.start_search_radius)
+        if start is None:
+            self._recovery = cfg.recovery_steps
+            return
+        wave = Wavefront(planning, start)
+        self._planning, self._wave = planning, wave
+        candidates = self._candidates(planning, wave)
+        choice = self._keep_target(candidates, wave, teammates, position, reached)
         if choice is None:
-            best: tuple[float, tuple[int, int]] | None = None
-            for bonus, cells, _ in candidates:
-                costs = wave.costs(cells)
-                index = int(np.argmin(costs))
-                score = (costs[index] - bonus) * resolution
-                if best is None or score < best[0]:
-                    best = (score, (int(cells[index, 0]), int(cells[index, 1])))
-            choice = None if best is None else best[1]
+            picked = self.chooser.choose(candidates, teammates, size_bonus=cfg.size_bonus)
+            if picked is not None:
+                cell = candidates[picked[0]].cells[picked[1]]
+                choice = (int(cell[0]), int(cell[1]))
             self._failures = 0
         if choice is None:
             self.finished = True
@@ -253,16 +319,18 @@ class FrontierPolicy:
 
     def _keep_target(
         self,
-        candidates: list[tuple[float, NDArray[np.intp], NDArray[np.float64]]],
+        candidates: list[Candidate],
         wave: Wavefront,
+        teammates: tuple[Teammate, ...],
+        position: NDArray[np.float64],
         reached: bool,
     ) -> tuple[int, int] | None:
         """The frontier cell nearest the current target if the target still holds."""
         if self.target is None:
             return None
         near_cells = [
-            cells[np.hypot(*(points - self.target).T) <= self.config.blacklist_radius]
-            for _, cells, points in candidates
+            c.cells[np.hypot(*(c.points - self.target).T) <= self.config.blacklist_radius]
+            for c in candidates
         ]
         near = np.concatenate(near_cells) if near_cells else np.zeros((0, 2), dtype=np.intp)
         if len(near) == 0:
@@ -270,6 +338,23 @@ class FrontierPolicy:
         if reached:
             self.blacklist.append(self.target)
             return None
+        if self._yields(teammates, position):
+            return None
         costs = wave.costs(near)
         index = int(np.argmin(costs))
         return (int(near[index, 0]), int(near[index, 1]))
+
+    def _yields(self, teammates: tuple[Teammate, ...], position: NDArray[np.float64]) -> bool:
+        """Whether a teammate strictly nearer to the current target (straight line, from
+        where each pose estimate puts it) has taken one within ``claim_radius`` of it."""
+        assert self.target is not None
+        mine = float(np.hypot(*(self.target - position[:2])))
+        for mate in teammates:
+            if mate.target is None:
+                continue
+            if float(np.hypot(*(mate.target - self.target))) > self.config.claim_radius:
+                continue
+            theirs = float(np.hypot(*(mate.target - mate.position)))
+            if theirs < mine:
+                return True
+        return False

@@ -7,9 +7,11 @@ so that a misplaced wall stands out. Right, in tabs, the merged map alone
 (placed the same way) and each robot's own map in its own frame (2-D views);
 below them the charts: the rotation and translation errors of accepted
 estimates against the truth, per pair; each pair's confidence with the merged
-map's agreement with the truth; and the team's exploration, every scalar
-series under ``team/`` (coverage, and any metric logged there later shows
-without a change here). The time cursor follows the latest step, so a
+map's agreement with the truth; the team's exploration, every scalar
+series under ``team/`` but the path lengths (coverage, each robot's own
+coverage, the overlap rate, and any metric logged there later shows without a
+change here); and the path lengths in metres, apart, as their scale dwarfs
+the fractions. The time cursor follows the latest step, so a
 finished recording opens on its last state and a live one keeps up; the side
 panels start collapsed.
 
@@ -26,6 +28,7 @@ import rerun.blueprint as rrb
 from tomosim.recording.paths import (
     AGREEMENT,
     MERGED_FRAME,
+    PATH_LENGTHS,
     STEP_TIMELINE,
     TEAM,
     WORLD,
@@ -109,13 +112,18 @@ def chart_views(*, merging: bool) -> list[rrb.TimeSeriesView]:
                 contents=[f"+ {quantity_path('confidence')}/**", f"+ {AGREEMENT}"],
             ),
         ]
-    charts.append(
+    charts += [
         rrb.TimeSeriesView(
             name="Team (team/**)",
             origin="/",
-            contents=[f"+ {TEAM}/**"],
-        )
-    )
+            contents=[f"+ {TEAM}/**", f"- {PATH_LENGTHS}/**"],
+        ),
+        rrb.TimeSeriesView(
+            name="Path length [m]",
+            origin="/",
+            contents=[f"+ {PATH_LENGTHS}/**"],
+        ),
+    ]
     return charts
 
 

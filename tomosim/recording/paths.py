@@ -26,8 +26,12 @@
     merge/accepted_pairs               per merge round: estimates the merger accepted
     merge/log                          one line per merge round
     team/coverage                      every step
+    team/robot_coverage/r0             robot 0's own grid's coverage, every step
+    team/path_length/r0, .../total     metres travelled by robot 0 and the team, every step
+    team/overlap_rate                  sum of the robots' coverages over the team's, less one
     team/...                           any other scalar series of the team's exploration
-                                       (TEAM: the viewer's "Team" chart shows them all)
+                                       (TEAM: the viewer's "Team" chart shows them all but
+                                       the path lengths, which have a chart of their own)
 
 Quantities come first and pairs last in ``merge/``, so that one entity filter
 (``merge/rotation_error_deg/**``) selects a quantity of every pair: rerun's
@@ -62,6 +66,9 @@ ACCEPTED_PAIRS = "merge/accepted_pairs"
 MERGE_LOG = "merge/log"
 TEAM = "team"
 COVERAGE = "team/coverage"
+OVERLAP_RATE = "team/overlap_rate"
+PATH_LENGTHS = "team/path_length"
+PATH_LENGTH_TOTAL = "team/path_length/total"
 
 PAIR_QUANTITIES = (
     "confidence",
@@ -145,6 +152,16 @@ def quantity_path(quantity: str) -> str:
     if quantity not in PAIR_QUANTITIES:
         raise ValueError(f"unknown pair quantity {quantity!r}; choose one of {PAIR_QUANTITIES}")
     return f"{MERGE}/{quantity}"
+
+
+def robot_coverage_path(robot: int) -> str:
+    """``team/robot_coverage/r0``: the coverage of the robot's own grid."""
+    return f"team/robot_coverage/{robot_name(robot)}"
+
+
+def path_length_path(robot: int) -> str:
+    """``team/path_length/r0``: metres the robot travelled."""
+    return f"{PATH_LENGTHS}/{robot_name(robot)}"
 
 
 def pair_path(pair: str, quantity: str) -> str:

@@ -7,7 +7,9 @@ The algorithms return data; the :class:`Recorder` takes an explicit
 * once, at the start: the default blueprint (:mod:`tomosim.recording.blueprint`),
   the run's settings, ``run/status`` "running", the ground truth, the walls,
   the robots' bodies and the colours of the maps (:mod:`tomosim.recording.colours`);
-* every step: the true poses, the scans, the team coverage;
+* every step: the true poses, the scans, the team coverage, and the tracked
+  figures of :mod:`tomosim.episode.tracking` (each robot's coverage and path
+  length, the team's path length and overlap rate; :meth:`Recorder.log_figures`);
 * each robot's map when it has changed, at most every ``map_interval`` steps
   (and at the last step);
 * every merge round: per pair the confidence, acceptance, confirmation and
@@ -44,6 +46,7 @@ import rerun as rr
 from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid
+from tomosim.episode.tracking import StepFigures
 from tomosim.recording.blueprint import default_blueprint
 from tomosim.recording.colours import map_classes, merged_classes
 from tomosim.recording.paths import (
@@ -56,6 +59,8 @@ from tomosim.recording.paths import (
     MERGE_LOG,
     MERGED,
     MERGED_FRAME,
+    OVERLAP_RATE,
+    PATH_LENGTH_TOTAL,
     SIM_TIME_TIMELINE,
     STATUS,
     STATUS_FINISHED,
@@ -68,7 +73,9 @@ from tomosim.recording.paths import (
     map_path,
     pair_colour,
     pair_path,
+    path_length_path,
     robot_colour,
+    robot_coverage_path,
     robot_path,
     trail_path,
 )
@@ -395,6 +402,18 @@ class Recorder:
             self.log_merge(session, merge)
         if time.monotonic() - self._flushed_at >= FLUSH_INTERVAL_S:
             self._flush()
+
+    def log_figures(self, session: TeamSession, figures: StepFigures) -> None:
+        """The tracked figures of the current step, as scalars under ``team/``."""
+        self._set_time(session)
+        log = self.stream.log
+        for k, (covered, travelled) in enumerate(
+            zip(figures.robot_coverage, figures.path_lengths, strict=True)
+        ):
+            log(robot_coverage_path(k), rr.Scalars(covered))
+            log(path_length_path(k), rr.Scalars(travelled))
+        log(PATH_LENGTH_TOTAL, rr.Scalars(figures.path_length))
+        log(OVERLAP_RATE, rr.Scalars(figures.overlap_rate))
 
     def _log_maps(self, session: TeamSession, *, force: bool) -> None:
         """Each robot's grid if it changed and ``map_interval`` steps passed (or ``force``)."""

@@ -6,8 +6,9 @@ import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from merging import available_methods
 from tomosim.episode import EpisodeConfig
+from tomosim.exploration import DEFAULT_POLICY, chooser_names
+from tomosim.team import CommsConfig, team_methods
 
 NO_MERGE = "none"
 """Method name standing for an episode with merging switched off."""
@@ -23,7 +24,7 @@ class Episode:
 
 @dataclass(frozen=True, slots=True)
 class SweepPlan:
-    """A grid of episodes: every combination of worlds, team sizes, methods and seeds.
+    """A grid of episodes: every combination of worlds, team sizes, policies, methods and seeds.
 
     Attributes
     ----------
@@ -31,9 +32,11 @@ class SweepPlan:
         Generated floor-plan seeds (``"0"``) or map_server YAML paths.
     robots : tuple of int
         Team sizes.
+    policies : tuple of str
+        Exploration policies (:func:`~tomosim.exploration.chooser_names`).
     methods : tuple of str
-        Merging methods (:func:`merging.available_methods`), or ``"none"``
-        for merging switched off.
+        Merging methods (:func:`merging.available_methods`, or ``"oracle"``:
+        the true start poses), or ``"none"`` for merging switched off.
     seeds : tuple of int
         Episode seeds.
     steps, merge_interval : int
@@ -42,29 +45,42 @@ class SweepPlan:
         Team coverage at which an episode ends.
     world_size : (float, float) or None
         Size in metres of generated floor plans (None: the default 30 x 20).
+    comm_range : float or None
+        Metres over which robots can talk (None: unlimited).
+    line_of_sight : bool
+        Whether walls block communication.
     record_dir : Path or None
         Folder for one ``.rrd`` recording per episode (None: no recordings).
     """
 
     worlds: tuple[str, ...] = ("0",)
     robots: tuple[int, ...] = (3,)
+    policies: tuple[str, ...] = (DEFAULT_POLICY,)
     methods: tuple[str, ...] = ("tomographic",)
     seeds: tuple[int, ...] = (0,)
-    steps: int = 1500
+    steps: int = EpisodeConfig.steps
     merge_interval: int = 50
     coverage_target: float = 0.9
     world_size: tuple[float, float] | None = None
+    comm_range: float | None = None
+    line_of_sight: bool = False
     record_dir: Path | None = None
 
     def __post_init__(self) -> None:
-        for name in ("worlds", "robots", "methods", "seeds"):
+        for name in ("worlds", "robots", "policies", "methods", "seeds"):
             if len(getattr(self, name)) == 0:
                 raise ValueError(f"a sweep needs at least one value of {name}")
-        known = set(available_methods()) | {NO_MERGE}
+        known = set(team_methods()) | {NO_MERGE}
         unknown = [m for m in self.methods if m not in known]
         if unknown:
             raise ValueError(f"unknown merging method(s) {unknown}; choose from {sorted(known)}")
-        for name in ("robots", "seeds", "methods", "worlds"):
+        strange = [p for p in self.policies if p not in chooser_names()]
+        if strange:
+            raise ValueError(
+                f"unknown exploration policy(ies) {strange}; choose from {list(chooser_names())}"
+            )
+        CommsConfig(self.comm_range, self.line_of_sight)  # validates the range
+        for name in ("robots", "seeds", "policies", "methods", "worlds"):
             values = getattr(self, name)
             if len(set(values)) != len(values):
                 raise ValueError(f"{name} lists a value twice: {list(values)}")
@@ -78,39 +94,48 @@ class SweepPlan:
             "world_size": "default"
             if self.world_size is None
             else "x".join(f"{v:g}" for v in self.world_size),
+            "comm_range": "unlimited"
+            if self.comm_range is None
+            else f"{self.comm_range:g}" + (" los" if self.line_of_sight else ""),
         }
 
     def episodes(self) -> list[Episode]:
-        """Every episode, in a fixed order (worlds, robots, methods, seeds)."""
-        out: list[Episode] = []
-        for world in self.worlds:
-            for robots in self.robots:
-                for method in self.methods:
-                    for seed in self.seeds:
-                        key = episode_key(world, robots, method, seed)
-                        merge = method != NO_MERGE
-                        config = EpisodeConfig(
-                            world=world,
-                            world_size=self.world_size,
-                            robots=robots,
-                            steps=self.steps,
-                            merge=merge,
-                            merge_interval=self.merge_interval,
-                            method=method if merge else EpisodeConfig.method,
-                            coverage_target=self.coverage_target,
-                            seed=seed,
-                        )
-                        if self.record_dir is not None:
-                            config = replace(
-                                config, record=self.record_dir / f"{_file_safe(key)}.rrd"
-                            )
-                        out.append(Episode(key, config))
-        return out
+        """Every episode, in a fixed order (worlds, robots, policies, methods, seeds)."""
+        return [
+            self.episode(world, robots, policy, method, seed)
+            for world in self.worlds
+            for robots in self.robots
+            for policy in self.policies
+            for method in self.methods
+            for seed in self.seeds
+        ]
+
+    def episode(self, world: str, robots: int, policy: str, method: str, seed: int) -> Episode:
+        """One episode of the grid (any values, not only the plan's own)."""
+        key = episode_key(world, robots, policy, method, seed)
+        merge = method != NO_MERGE
+        config = EpisodeConfig(
+            world=world,
+            world_size=self.world_size,
+            robots=robots,
+            policy=policy,
+            steps=self.steps,
+            merge=merge,
+            merge_interval=self.merge_interval,
+            method=method if merge else EpisodeConfig.method,
+            coverage_target=self.coverage_target,
+            comm_range=self.comm_range,
+            line_of_sight=self.line_of_sight,
+            seed=seed,
+        )
+        if self.record_dir is not None:
+            config = replace(config, record=self.record_dir / f"{_file_safe(key)}.rrd")
+        return Episode(key, config)
 
 
-def episode_key(world: str, robots: int, method: str, seed: int) -> str:
-    """``world|robots|method|seed``: names an episode within a sweep."""
-    return f"{world}|{robots}|{method}|{seed}"
+def episode_key(world: str, robots: int, policy: str, method: str, seed: int) -> str:
+    """``world|robots|policy|method|seed``: names an episode within a sweep."""
+    return f"{world}|{robots}|{policy}|{method}|{seed}"
 
 
 def _file_safe(key: str) -> str:

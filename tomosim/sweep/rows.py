@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -19,17 +20,15 @@ import numpy as np
 
 from tomosim.episode import EpisodeConfig, EpisodeMetrics, run_episode
 
-ROTATION_RIGHT_DEG = 2.0
-"""An accepted merge further off than this in rotation counts as wrong (the
-main job's accuracy bar)."""
-TRANSLATION_RIGHT_M = 0.2
-"""An accepted merge further off than this in translation counts as wrong."""
 TIMING_FIELDS = ("wall_seconds", "merge_seconds")
 """Columns that measure the machine, not the episode: they differ between runs."""
 ROW_FIELDS = (
-    "key", "world", "world_spec", "robots", "method", "seed", "steps_limit", "merge_interval",
-    "coverage_target", "world_size", "steps", "coverage", "steps_to_target",
-    "time_to_target_s", "stop_reason", "merge_rounds", "pairs_accepted", "pairs_wrong",
+    "key", "world", "world_spec", "robots", "policy", "method", "seed", "steps_limit",
+    "merge_interval", "coverage_target", "world_size", "comm_range", "steps", "coverage",
+    "steps_to_target", "time_to_target_s", "stop_reason", "path_length_m", "path_lengths_m",
+    "overlap_rate", "efficiency_m2_per_m", "merge_rounds", "pairs_accepted", "pairs_confirmed",
+    "pairs_wrong", "pairs_gross_wrong", "pairs_gross_wrong_confirmed", "first_link_step",
+    "linked_robots",
     "rotation_error_deg_median", "rotation_error_deg_max", "translation_error_m_median",
     "translation_error_m_max", "record", *TIMING_FIELDS,
 )  # fmt: skip
@@ -42,29 +41,38 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
     accepted = [pair for _, pair in metrics.accepted()]
     rotation = np.array([p.rotation_error_deg for p in accepted], dtype=float)
     translation = np.array([p.translation_error_m for p in accepted], dtype=float)
-    wrong = int(
-        np.count_nonzero((rotation > ROTATION_RIGHT_DEG) | (translation > TRANSLATION_RIGHT_M))
-    )
+    stats = metrics.merge_stats()
     target = metrics.steps_to(float(settings["coverage_target"]))
     return {
         "key": key,
         "world": settings["world"],
         "world_spec": settings["world_spec"],
         "robots": settings["robots"],
+        "policy": settings["policy"],
         "method": settings["method"] if settings["merge"] else "none",
         "seed": settings["seed"],
         "steps_limit": shared["steps_limit"],
         "merge_interval": shared["merge_interval"],
         "coverage_target": shared["coverage_target"],
         "world_size": shared["world_size"],
+        "comm_range": shared["comm_range"],
         "steps": metrics.steps,
         "coverage": round(metrics.coverage, 6),
         "steps_to_target": "" if target is None else target,
         "time_to_target_s": "" if target is None else round(target * metrics.dt, 3),
         "stop_reason": metrics.stop_reason,
-        "merge_rounds": len(metrics.merges),
-        "pairs_accepted": len(accepted),
-        "pairs_wrong": wrong,
+        "path_length_m": round(metrics.path_length, 3),
+        "path_lengths_m": ";".join(f"{p:.3f}" for p in metrics.path_lengths),
+        "overlap_rate": round(metrics.overlap_rate, 6),
+        "efficiency_m2_per_m": _round(metrics.efficiency, 4),
+        "merge_rounds": stats.rounds,
+        "pairs_accepted": stats.accepted,
+        "pairs_confirmed": stats.confirmed,
+        "pairs_wrong": stats.wrong,
+        "pairs_gross_wrong": stats.gross_wrong,
+        "pairs_gross_wrong_confirmed": stats.gross_wrong_confirmed,
+        "first_link_step": "" if stats.first_link_step is None else stats.first_link_step,
+        "linked_robots": stats.linked_robots,
         "rotation_error_deg_median": _stat(np.median, rotation),
         "rotation_error_deg_max": _stat(np.max, rotation),
         "translation_error_m_median": _stat(np.median, translation),
@@ -73,6 +81,10 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
         "wall_seconds": round(metrics.wall_seconds, 3),
         "merge_seconds": round(sum(m.seconds for m in metrics.merges), 3),
     }
+
+
+def _round(value: float, digits: int) -> float | str:
+    return round(value, digits) if math.isfinite(value) else ""
 
 
 def _stat(function: Any, values: np.ndarray) -> float | str:

@@ -1,4 +1,6 @@
-"""A team of robots exploring together: periodic merging, shared maps, team coverage.
+"""A team of robots exploring together: periodic merging, shared maps, team coverage,
+limited communication (:mod:`tomosim.team.comms`) and the known-poses bound
+(:mod:`tomosim.team.oracle`).
 
 >>> from tomosim.team import TeamConfig, TeamSession
 >>> from tomosim.worlds import generate_floorplan
@@ -8,6 +10,7 @@
 """
 
 from tomosim.frames import frame_errors
+from tomosim.team.comms import CommsConfig, in_range, reach_groups
 from tomosim.team.coverage import TeamCoverage
 from tomosim.team.merger import (
     PairEstimator,
@@ -17,6 +20,7 @@ from tomosim.team.merger import (
     pair_name,
     robot_name,
 )
+from tomosim.team.oracle import ORACLE, check_team_method, oracle_estimator, team_methods
 from tomosim.team.quality import (
     PairQuality,
     RoundQuality,
@@ -29,6 +33,8 @@ from tomosim.team.session import TeamConfig, TeamSession
 from tomosim.team.sharing import SharedMaps, grid_anchor, teammate_layer
 
 __all__ = [
+    "ORACLE",
+    "CommsConfig",
     "PairEstimator",
     "PairOutcome",
     "PairQuality",
@@ -39,13 +45,18 @@ __all__ = [
     "TeamMerge",
     "TeamMerger",
     "TeamSession",
+    "check_team_method",
     "frame_errors",
     "grid_anchor",
+    "in_range",
     "merged_agreement",
+    "oracle_estimator",
     "pair_name",
     "pair_quality",
+    "reach_groups",
     "robot_name",
     "score_round",
+    "team_methods",
     "teammate_layer",
     "true_relative",
 ]

@@ -1,7 +1,9 @@
 """Team coverage of the world, kept up to date step by step, and who discovered what.
 
 The free space counted is that of :func:`tomosim.evaluation.coverage`: the
-largest 8-connected region of free truth cells. A truth cell is *known* to
+world's explorable space (:attr:`World.explorable
+<tomosim.worlds.World.explorable>`), the largest 8-connected region of free
+truth cells without strands too thin to be space. A truth cell is *known* to
 robot ``k`` when its centre, carried into robot ``k``'s map frame by the
 robot's true start pose, falls on a known cell of its grid (the rule of
 :func:`tomosim.evaluation.known_in_world`); it is known to the *team* when
@@ -96,7 +98,7 @@ class TeamCoverage:
             raise ValueError(f"start_poses must have shape (N, 3), got {starts.shape}")
         if not (math.isfinite(resolution) and resolution > 0):
             raise ValueError(f"resolution must be a positive number of metres, got {resolution}")
-        self.region = world.navigable(0.0)
+        self.region = world.explorable
         self.cell_area = world.resolution**2
         rows, cols = np.nonzero(self.region)
         self.total = len(rows)

@@ -6,11 +6,18 @@ runner drive. One :meth:`TeamSession.step`
 1. advances the simulation under the robots' commands;
 2. updates the team coverage and credits each robot with the free space the
    team knows for the first time (:mod:`tomosim.team.coverage`);
-3. every ``merge_interval`` steps, when merging is on, runs a merge round
-   (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone), adopts
-   its links, and scores it against the truth
+3. finds who can talk to whom (:mod:`tomosim.team.comms`; everyone, without
+   a communication range);
+4. every ``merge_interval`` steps, when merging is on, runs a merge round
+   (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone, over the
+   pairs that can talk), adopts its links, and scores it against the truth
    (:func:`~tomosim.team.quality.score_round`);
-4. rebuilds the teammate layers that are due (:mod:`tomosim.team.sharing`).
+5. rebuilds the teammate layers that are due, each robot taking in the grids
+   of the linked teammates it reaches (:mod:`tomosim.team.sharing`).
+
+The merging method ``"oracle"`` merges with the true start poses
+(:mod:`tomosim.team.oracle`): the session, which holds them, hands the
+merger an estimator that knows them, and merging itself never sees them.
 
 All randomness comes from the generator given at construction: one stream
 for the simulation (start poses, odometry, lidar) and one for the merger.
@@ -23,12 +30,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from merging import check_method
+from merging import estimate_transform
 from merging.api import DEFAULT_METHOD
 from merging.grid import OccupancyGrid
+from merging.result import MergeResult
 from tomosim.simulation import Simulation, SimulationConfig
+from tomosim.team.comms import CommsConfig, in_range, out_of_reach, reach_groups
 from tomosim.team.coverage import TeamCoverage
-from tomosim.team.merger import TeamMerge, TeamMerger
+from tomosim.team.merger import PairEstimator, TeamMerge, TeamMerger
+from tomosim.team.oracle import ORACLE, check_team_method, oracle_estimator
 from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
 from tomosim.team.tracking import TrackingEstimator
@@ -44,7 +54,8 @@ class TeamConfig:
     merge : bool
         Whether the robots' maps are merged at all.
     method : str
-        Merging method (:func:`merging.available_methods`).
+        Merging method (:func:`merging.available_methods`), or ``"oracle"``:
+        the true relative start poses (:mod:`tomosim.team.oracle`).
     merge_interval : int
         Steps between merge rounds.
     confirmations : int
@@ -60,6 +71,8 @@ class TeamConfig:
     merge_worker : bool
         Run the tracker's global searches in a worker process (the results,
         collected at a fixed later round, are the same either way).
+    comms : CommsConfig
+        Communication range (default unlimited; :mod:`tomosim.team.comms`).
     simulation : SimulationConfig
         Robots, lidar, odometry and mapping.
     """
@@ -71,10 +84,11 @@ class TeamConfig:
     share_interval: int = 10
     tracking: bool = True
     merge_worker: bool = True
+    comms: CommsConfig = field(default_factory=CommsConfig)
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
 
     def __post_init__(self) -> None:
-        check_method(self.method)
+        check_team_method(self.method)
         for name in ("merge_interval", "confirmations", "share_interval"):
             value = getattr(self, name)
             if not (isinstance(value, int | np.integer) and value >= 1):
@@ -109,6 +123,10 @@ class TeamSession:
     rewards : (N,) float ndarray
         Square metres of free space each robot discovered for the team at the
         last step.
+    reach : (N,) int ndarray
+        Per robot, the label of its communication group at the current step:
+        robots reach each other when their labels are equal (all equal without
+        a communication range).
     """
 
     __slots__ = (
@@ -118,6 +136,7 @@ class TeamSession:
         "last_merge",
         "last_quality",
         "merger",
+        "reach",
         "rewards",
         "shared",
         "simulation",
@@ -137,18 +156,14 @@ class TeamSession:
             world, robots=robots, config=self.config.simulation, rng=sim_rng
         )
         count = self.simulation.count
-        tracker = None
-        if self.config.tracking and self.config.method == DEFAULT_METHOD:
-            tracker = TrackingEstimator(
-                method=self.config.method, worker=self.config.merge_worker, rng=merge_rng
-            )
+        self.reach = self._reach_groups()
         self.merger = (
             TeamMerger(
                 method=self.config.method,
                 interval=self.config.merge_interval,
                 confirmations=self.config.confirmations,
                 rng=merge_rng,
-                estimator=tracker,
+                estimator=self._estimator(merge_rng),
             )
             if self.config.merge
             else None
@@ -187,21 +202,63 @@ class TeamSession:
             self._grids = [self.simulation.grid(k) for k in range(self.count)]
         return self._grids
 
+    def _estimator(self, rng: np.random.Generator) -> PairEstimator | None:
+        """The merger's pair estimator: the oracle's, the tracker's (the default method,
+        with tracking) or None (the method's own search every round); without a
+        communication range as it is, else asked only for the pairs that can talk."""
+        method = self.config.method
+        base: PairEstimator | None = None
+        if method == ORACLE:
+            base = oracle_estimator(self.simulation.start_poses)
+        elif self.config.tracking and method == DEFAULT_METHOD:
+            base = TrackingEstimator(method=method, worker=self.config.merge_worker, rng=rng)
+        if self.config.comms.unlimited:
+            return base
+
+        def estimate(i: int, j: int, grid_i: OccupancyGrid, grid_j: OccupancyGrid) -> MergeResult:
+            if self.reach[i] != self.reach[j]:
+                return out_of_reach(i, j, method)
+            if base is not None:
+                return base(i, j, grid_i, grid_j)
+            return estimate_transform(grid_i, grid_j, method=method, rng=rng)
+
+        return estimate
+
+    def _reach_groups(self) -> NDArray[np.intp]:
+        """Step 3: every robot's communication group now (:mod:`tomosim.team.comms`)."""
+        comms = self.config.comms
+        if comms.unlimited:
+            return np.zeros(self.count, dtype=np.intp)
+        positions = self.simulation.true_poses[:, :2]
+        return reach_groups(in_range(positions, comms, self.world.walls))
+
     def step(self, commands: ArrayLike) -> RoundQuality | None:
         """Advance one step (module docstring); returns the merge round run, if any, scored."""
         self.simulation.step(commands)
         self._grids = None
         self.rewards = self.coverage.reveal([m.take_journal() for m in self.simulation.maps])
+        self.reach = self._reach_groups()
+        reach = None if self.config.comms.unlimited else self.reach
         scored = None
         if self.merger is not None and self.merger.due(self.steps):
             grids = self.grids()
             merge = self.merger.merge(self.steps, grids)
             scored = score_round(merge, grids, self.simulation.start_poses, self.world.truth)
             self.last_merge, self.last_quality = merge, scored
-            self.shared.link(merge)
+            self.shared.link(merge, reach=reach)
         if self.shared.due(self.steps):
-            self.shared.refresh(self.steps, self.grids())
+            self.shared.refresh(self.steps, self.grids(), reach=reach)
         return scored
+
+    def reaches(self, robot: int, other: int) -> bool:
+        """Whether ``robot`` can talk to ``other`` now, directly or through relays."""
+        return bool(self.reach[robot] == self.reach[other])
+
+    def contacts(self, robot: int) -> dict[int, NDArray[np.float64]]:
+        """The teammates robot ``robot`` coordinates with now, each with the matrix taking
+        its map frame to robot ``robot``'s (metres): those its map is linked to by merges
+        and that it reaches at this step (it learns their poses and targets)."""
+        return {k: m for k, m in self.shared.links(robot).items() if self.reaches(robot, k)}
 
     def linked(self, robot: int) -> bool:
         """Whether robot ``robot``'s best map includes teammates' maps."""

@@ -20,6 +20,17 @@ those blobs and misaligned walls closed corridors and doors to the planner
 (on ``aces3``, a robot found no reachable frontier left and stopped). A robot
 that is linked to nobody has its own grid as its best map.
 
+Limited communication
+---------------------
+With a communication range (:mod:`tomosim.team.comms`), ``reach`` labels
+tell who can talk at a step. A robot then takes in a linked teammate's grid,
+when its layer is rebuilt, only if it reaches the teammate at that step, and
+keeps the last one it received otherwise; and a link to a teammate it does
+not reach when a merge round runs is kept from the earlier round (that round
+could not see both maps, so it has nothing new to say about the pair).
+Without ``reach`` every robot reaches every other, and the received grids are
+the current ones.
+
 Cell lattice
 ------------
 Every robot's grid (:class:`~tomosim.mapping.LogOddsMap`) has yaw 0 and an
@@ -168,7 +179,7 @@ class SharedMaps:
         Steps between rebuilds of a linked robot's teammate layer.
     """
 
-    __slots__ = ("_layers", "_links", "_refreshed", "count", "refresh_interval")
+    __slots__ = ("_layers", "_links", "_received", "_refreshed", "count", "refresh_interval")
 
     def __init__(self, count: int, *, refresh_interval: int = 10) -> None:
         if count < 1:
@@ -182,16 +193,26 @@ class SharedMaps:
         self._links: list[dict[int, NDArray[np.float64]]] = [{} for _ in range(count)]
         self._layers: list[tuple[NDArray[np.int8], tuple[int, int]] | None] = [None] * count
         self._refreshed: list[int | None] = [None] * count
+        self._received: list[dict[int, OccupancyGrid]] = [{} for _ in range(count)]
 
-    def link(self, merge: TeamMerge | None) -> None:
+    def link(self, merge: TeamMerge | None, *, reach: ArrayLike | None = None) -> None:
         """Adopt the links of a merge round (None: every robot alone); layers are rebuilt
-        at the next :meth:`refresh`."""
+        at the next :meth:`refresh`.
+
+        ``reach`` (per robot, its communication group's label at the round) keeps a
+        robot's earlier links to the teammates it does not reach (module docstring).
+        """
+        labels = None if reach is None else np.asarray(reach)
         for robot in range(self.count):
             links: dict[int, NDArray[np.float64]] = {}
             if merge is not None:
                 for other in range(self.count):
                     matrix = merge.relative(robot, other) if other != robot else None
                     if matrix is not None:
+                        links[other] = matrix
+            if labels is not None:
+                for other, matrix in self._links[robot].items():
+                    if other not in links and labels[other] != labels[robot]:
                         links[other] = matrix
             self.set_links(robot, links)
 
@@ -210,10 +231,16 @@ class SharedMaps:
         self._links[robot] = links
         self._layers[robot] = None
         self._refreshed[robot] = None
+        self._received[robot] = {k: g for k, g in self._received[robot].items() if k in links}
 
     def teammates(self, robot: int) -> tuple[int, ...]:
         """Robots whose maps robot ``robot`` sees in its best map."""
         return tuple(sorted(self._links[robot]))
+
+    def links(self, robot: int) -> dict[int, NDArray[np.float64]]:
+        """Per teammate robot ``robot`` is linked to, the matrix taking the teammate's map
+        frame to robot ``robot``'s (metres); a new dict each call."""
+        return {other: matrix.copy() for other, matrix in self._links[robot].items()}
 
     def due(self, step: int) -> bool:
         """Whether :meth:`refresh` at ``step`` would rebuild some robot's layer."""
@@ -222,16 +249,25 @@ class SharedMaps:
             for links, last in zip(self._links, self._refreshed, strict=True)
         )
 
-    def refresh(self, step: int, grids: Sequence[OccupancyGrid]) -> None:
-        """Rebuild the teammate layers that are due at ``step`` from the current ``grids``."""
+    def refresh(
+        self, step: int, grids: Sequence[OccupancyGrid], *, reach: ArrayLike | None = None
+    ) -> None:
+        """Rebuild the teammate layers that are due at ``step``: each such robot takes in the
+        current ``grids`` of the linked teammates it reaches (all, without ``reach``) and
+        builds its layer from the grids it has received."""
+        labels = None if reach is None else np.asarray(reach)
         for robot in range(self.count):
             links = self._links[robot]
             last = self._refreshed[robot]
             if not links or (last is not None and step - last < self.refresh_interval):
                 continue
-            others = sorted(links)
+            received = self._received[robot]
+            for other in links:
+                if labels is None or labels[other] == labels[robot]:
+                    received[other] = grids[other]
+            others = sorted(k for k in links if k in received)
             self._layers[robot] = teammate_layer(
-                [grids[k] for k in others], [links[k] for k in others], grids[robot].resolution
+                [received[k] for k in others], [links[k] for k in others], grids[robot].resolution
             )
             self._refreshed[robot] = step
 

@@ -1,0 +1,207 @@
+"""Study: what merging is worth to a team exploring, against no merging and known poses.
+
+Sweeps (:mod:`tomosim.sweep`, a process pool or Ray) of the built-in
+exploration over worlds (generated floors and real buildings), team sizes,
+exploration policies, merge methods (``none``: merging off, the lower bound;
+``tomographic``: the default merger; ``oracle``: merging with the true
+relative start poses, the upper bound any merger can reach) and seeds. Every
+finished episode appends a row to ``<out>/<world>.csv`` at once; rerunning
+the same command skips the episodes already there, so the study can be
+stopped and resumed at will, and ``--report-only`` redraws the outputs from
+what has run.
+
+Episodes run in stages, the most telling first (stages are ordered, each
+runs what it lacks, and anything else the grid asks for comes last):
+
+1. generated floors, 4 robots, the default policy, every method;
+2. generated floors, every team size, the default policy;
+3. ``aces3``, 4 robots, the default policy;
+4. generated floors, 4 robots, the default policy, with each communication
+   range of ``--comm-ranges`` (merging methods only: merging off does not
+   talk);
+5. the other real maps (``fr079``), 4 robots, the default policy;
+6. real maps, every team size, the default policy;
+7. generated floors, the other policies;
+8. the rest of the grid (real maps' other policies).
+
+Outputs in ``--out``: the CSVs, ``study_exploration.md`` (tables and the
+acceptance checks) and two PNGs (time to 90 % against team size; speed-up of
+merging and the share of the oracle's speed-up the tomographic merger reaches).
+
+Usage::
+
+    python scripts/study_exploration.py                          # the whole study
+    python scripts/study_exploration.py --worlds 0 1 2 --robots 4 --seeds 0 1 2 3
+    python scripts/study_exploration.py --report-only            # tables and plots only
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from exploration_study.plots import gains_figure, times_figure
+from exploration_study.report import (
+    checks,
+    checks_markdown,
+    comm_table,
+    policies_table,
+    policies_verdict,
+    times_table,
+)
+from exploration_study.runs import Grid, progress, read_rows, run_world
+from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
+from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
+
+from tomosim.exploration import DEFAULT_POLICY, chooser_names
+from tomosim.sweep import EXECUTORS, NO_MERGE
+
+OUTPUT = Path(__file__).resolve().parents[1] / "docs" / "figures" / "study_exploration"
+"""Default folder of the outputs."""
+ROBOTS = (1, 2, 4, 6)
+METHODS = (NO_MERGE, TOMOGRAPHIC, ORACLE)
+SEEDS = (0, 1, 2, 3)
+COMM_RANGES = (10.0, 5.0)
+"""Communication ranges (metres) of the fourth stage: a room or two, and a few metres."""
+CORE_TEAM = 4
+"""The team size of the first, third and fourth stages."""
+
+
+def stages(
+    worlds: list[StudyWorld], grid: Grid, policy: str, comm_ranges: tuple[float, ...]
+) -> list[tuple[StudyWorld, Grid]]:
+    """The study's runs in order of importance (module docstring)."""
+    floors = [w for w in worlds if w.generated]
+    real = [w for w in worlds if not w.generated]
+    core = tuple(n for n in grid.robots if n == CORE_TEAM)
+    others = tuple(p for p in grid.policies if p != policy)
+    mine = (policy,) if policy in grid.policies else ()
+    aces3 = [w for w in real if w.label == "aces3"]
+
+    def part(robots: tuple[int, ...], policies: tuple[str, ...], comm: float | None = None) -> Grid:
+        return Grid(robots, policies, grid.methods, grid.seeds, grid.alone, comm)
+
+    out: list[tuple[StudyWorld, Grid]] = []
+    if mine:
+        out += [(w, part(core, mine)) for w in floors]
+        out += [(w, part(grid.robots, mine)) for w in floors]
+        out += [(w, part(core, mine)) for w in aces3]
+        out += [(w, part(core, mine, r)) for r in comm_ranges for w in floors]
+        out += [(w, part(core, mine)) for w in real if w not in aces3]
+        out += [(w, part(grid.robots, mine)) for w in real]
+    if others:
+        out += [(w, part(grid.robots, others)) for w in floors]
+    out += [(w, grid) for w in worlds]
+    return [(w, g) for w, g in out if g.robots]
+
+
+def report(
+    worlds: list[StudyWorld], grid: Grid, policy: str, comm_ranges: tuple[float, ...], out: Path
+) -> str:
+    """Write the Markdown and the figures from the rows so far; returns the Markdown."""
+    rows = read_rows(out, worlds)
+    tables = {label: cells(r) for label, r in rows.items() if r}
+    limited = {}
+    for metres in comm_ranges:
+        found = read_rows(out, worlds, metres)
+        limited[metres] = {label: cells(r) for label, r in found.items() if r}
+    text = [
+        f"# Exploration study: time to 90 % coverage, policy `{policy}`",
+        "",
+        "Median over seeds (min-max in brackets) of the simulated seconds until the team "
+        "knows 90 % of the free space; `> cap`: fewer than half the episodes got there.",
+        "",
+        times_table(worlds, tables, policy, grid.robots),
+        "",
+        "## Policies (generated floors pooled, tomographic merging)",
+        "",
+        policies_table(worlds, tables, grid.policies, grid.robots, TOMOGRAPHIC),
+        "",
+        "Time to 90 % against the first policy's, same world, team and seed (teams of 2 and more):",
+        "",
+        policies_verdict(worlds, tables, grid.policies, grid.robots, TOMOGRAPHIC),
+        "",
+        "## Policies (generated floors pooled, no merging)",
+        "",
+        policies_table(worlds, tables, grid.policies, grid.robots, NO_MERGE),
+        "",
+        f"## Communication range (generated floors pooled, {CORE_TEAM} robots)",
+        "",
+        comm_table(worlds, tables, limited, policy, CORE_TEAM),
+        "",
+        "## Acceptance checks",
+        "",
+        checks_markdown(checks(worlds, tables, policy, grid.robots)),
+        "",
+        "## Progress: episodes in the results files, of those the study plans",
+        "",
+        progress_table(worlds, grid, policy, comm_ranges, out),
+        "",
+    ]
+    markdown = "\n".join(text)
+    (out / "study_exploration.md").write_text(markdown)
+    times_figure(worlds, tables, policy, grid.robots, out / "time_to_90.png")
+    gains_figure(worlds, tables, policy, grid.robots, out / "merging_gains.png")
+    return markdown
+
+
+def progress_table(
+    worlds: list[StudyWorld], grid: Grid, policy: str, comm_ranges: tuple[float, ...], out: Path
+) -> str:
+    """Per world, the episodes run so far of those the study's stages plan."""
+    lines = ["| world | done | planned |", "|---|---:|---:|"]
+    for world in worlds:
+        parts = [g for w, g in stages(worlds, grid, policy, comm_ranges) if w == world]
+        done, planned = progress(world, parts, out)
+        lines.append(f"| {world.label} | {done} | {planned} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--worlds", nargs="+", default=list(DEFAULT_WORLDS),
+        help="generated floor seeds, names of shared maps or YAML files",
+    )  # fmt: skip
+    parser.add_argument("--robots", nargs="+", type=int, default=list(ROBOTS))
+    parser.add_argument("--policies", nargs="+", default=list(chooser_names()))
+    parser.add_argument(
+        "--policy", default=DEFAULT_POLICY,
+        help=f"the policy the tables and checks are about (default {DEFAULT_POLICY})",
+    )  # fmt: skip
+    parser.add_argument("--methods", nargs="+", default=list(METHODS))
+    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
+    parser.add_argument("--steps", type=int, help="step cap of every world (default: per world)")
+    parser.add_argument(
+        "--comm-ranges", nargs="*", type=float, default=list(COMM_RANGES), metavar="METRES",
+        help="communication ranges of the fourth stage (default: 10 5; none: skip it)",
+    )  # fmt: skip
+    parser.add_argument("--executor", choices=EXECUTORS, default="process")
+    parser.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    parser.add_argument("--out", type=Path, default=OUTPUT, help="folder of the outputs")
+    parser.add_argument("--report-only", action="store_true", help="run nothing, only report")
+    args = parser.parse_args(argv)
+    if args.steps is not None and args.steps < 1:
+        parser.error(f"--steps must be at least 1, got {args.steps}")
+    worlds = [resolve(token, args.steps) for token in args.worlds]
+    grid = Grid(
+        tuple(args.robots),
+        tuple(args.policies),
+        tuple(args.methods),
+        tuple(args.seeds),
+        args.policy,
+    )
+    args.out.mkdir(parents=True, exist_ok=True)
+    if not args.report_only:
+        try:
+            for world, part in stages(worlds, grid, args.policy, tuple(args.comm_ranges)):
+                run_world(world, part, args.out, executor=args.executor, workers=args.workers)
+        except KeyboardInterrupt:
+            print("interrupted: rerun the same command to resume", file=sys.stderr)
+    print(report(worlds, grid, args.policy, tuple(args.comm_ranges), args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,78 @@
+"""The known-poses bound: merging with the true relative start poses.
+
+``method="oracle"`` stands for a merger that is always right: for every pair
+of robots, every round, it returns the true transform between their map
+frames, accepted with confidence 1, whatever the maps hold (with known start
+poses robots need no overlap to share maps). No merger working from the grids
+can link maps sooner or more accurately, so the time an oracle team takes to
+explore is the bound a merger is measured against; merging off is the other
+bound.
+
+The oracle is a :data:`~tomosim.team.merger.PairEstimator` plugged into the
+same :class:`~tomosim.team.merger.TeamMerger` (same rounds, same
+confirmation rule, same linking and sharing), so that a comparison with the
+tomographic merger isolates the estimates. It is built by the session, the
+one place that holds the true start poses; :mod:`merging` never sees them.
+
+The transform taking robot ``j``'s map frame to robot ``i``'s is
+``inv(P_i) @ P_j`` (:func:`~tomosim.team.quality.true_relative`), in metres;
+in cells, ``inv(C_i) @ inv(P_i) @ P_j @ C_j`` with ``C_k`` the matrix taking
+grid ``k``'s cells to its frame (:meth:`OccupancyGrid.cell_to_world_matrix`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from merging import available_methods
+from merging.grid import OccupancyGrid
+from merging.result import MergeResult
+from tomosim.team.merger import PairEstimator
+from tomosim.team.quality import true_relative
+
+ORACLE = "oracle"
+"""The method name of the known-poses bound."""
+
+
+def team_methods() -> tuple[str, ...]:
+    """Merging methods a team accepts: :func:`merging.available_methods` and :data:`ORACLE`."""
+    return (*available_methods(), ORACLE)
+
+
+def check_team_method(method: object) -> str:
+    """Return ``method`` if a team can merge with it, else raise ValueError listing the names."""
+    if not isinstance(method, str) or method not in team_methods():
+        raise ValueError(
+            f"unknown merging method {method!r}; choose one of: {', '.join(team_methods())}"
+        )
+    return method
+
+
+def oracle_estimator(starts: ArrayLike) -> PairEstimator:
+    """A pair estimator returning the true transforms between the robots' map frames.
+
+    Parameters
+    ----------
+    starts : (N, 3) array_like
+        The robots' true start poses ``(x, y, theta)`` in the world.
+    """
+    poses = np.array(starts, dtype=float)
+    if poses.ndim != 2 or poses.shape[1] != 3 or not np.all(np.isfinite(poses)):
+        raise ValueError(f"starts must be a finite (N, 3) array of poses, got shape {poses.shape}")
+
+    def estimate(i: int, j: int, grid_i: OccupancyGrid, grid_j: OccupancyGrid) -> MergeResult:
+        if not (0 <= i < len(poses) and 0 <= j < len(poses)):
+            raise ValueError(f"robots ({i}, {j}) out of range for {len(poses)} start poses")
+        metres = true_relative(poses[i], poses[j])
+        into_i = np.linalg.inv(grid_i.cell_to_world_matrix())
+        cells = into_i @ metres @ grid_j.cell_to_world_matrix()
+        return MergeResult(
+            matrix=np.asarray(cells, dtype=np.float64),
+            confidence=1.0,
+            accepted=True,
+            method=ORACLE,
+            matrix_metres=np.asarray(metres, dtype=np.float64),
+        )
+
+    return estimate
