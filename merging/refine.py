@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -139,36 +140,77 @@ def field_scale(sigma: float, downsample_from: float) -> float:
     return float(max(2.0, 2.0 ** np.floor(np.log2(sigma))))
 
 
-def _bilinear(
-    image: NDArray[np.float32], x: NDArray[np.float64], y: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Value and gradient of ``image`` at ``(x, y)``, all assumed inside."""
-    x0 = np.floor(x).astype(np.intp)
-    y0 = np.floor(y).astype(np.intp)
-    fx, fy = x - x0, y - y0
-    v00 = image[y0, x0]
-    v01 = image[y0, x0 + 1]
-    v10 = image[y0 + 1, x0]
-    v11 = image[y0 + 1, x0 + 1]
-    top = v00 * (1 - fx) + v01 * fx
-    bottom = v10 * (1 - fx) + v11 * fx
-    value = top * (1 - fy) + bottom * fy
-    grad_x = (v01 - v00) * (1 - fy) + (v11 - v10) * fy
-    return value, grad_x, bottom - top
+@numba.njit(cache=True, nogil=True)
+def _sample(
+    image: NDArray[np.float32],
+    matrix: NDArray[np.float64],
+    points: NDArray[np.float64],
+    corner_x: float,
+    corner_y: float,
+    scale: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Move ``points`` (map 2 cells) by ``matrix`` and sample the field ``image`` there.
+
+    Returns, for the points that land inside the image (its last row and
+    column excluded, so that every bilinear neighbour exists): where they
+    land in map 1's cells ``(K, 2)``, and the field's bilinear value and
+    gradient along x and y in image pixels at each. The compiled form of
+    :func:`merging.transforms.apply_transform`, :meth:`Field.locate` and a
+    bilinear lookup, which the refinement repeats hundreds of times a search.
+    """
+    count = points.shape[0]
+    rows, cols = image.shape
+    landed = np.empty((count, 2))
+    value = np.empty(count)
+    grad_x = np.empty(count)
+    grad_y = np.empty(count)
+    a, b, c = matrix[0, 0], matrix[0, 1], matrix[0, 2]
+    d, e, f = matrix[1, 0], matrix[1, 1], matrix[1, 2]
+    offset = 0.5 / scale + 0.5
+    kept = 0
+    for i in range(count):
+        px, py = points[i, 0], points[i, 1]
+        cell_x = px * a + py * b + c
+        cell_y = px * d + py * e + f
+        x = (cell_x - corner_x) / scale + offset
+        y = (cell_y - corner_y) / scale + offset
+        if not (x >= 0.0 and x < cols - 1 and y >= 0.0 and y < rows - 1):
+            continue
+        x0 = int(np.floor(x))
+        y0 = int(np.floor(y))
+        fx, fy = x - x0, y - y0
+        v00 = np.float64(image[y0, x0])
+        v01 = np.float64(image[y0, x0 + 1])
+        v10 = np.float64(image[y0 + 1, x0])
+        v11 = np.float64(image[y0 + 1, x0 + 1])
+        top = v00 * (1.0 - fx) + v01 * fx
+        bottom = v10 * (1.0 - fx) + v11 * fx
+        landed[kept, 0] = cell_x
+        landed[kept, 1] = cell_y
+        value[kept] = top * (1.0 - fy) + bottom * fy
+        grad_x[kept] = (v01 - v00) * (1.0 - fy) + (v11 - v10) * fy
+        grad_y[kept] = bottom - top
+        kept += 1
+    return landed[:kept], value[:kept], grad_x[:kept], grad_y[:kept]
 
 
-def _inside(points: NDArray[np.float64], field: NDArray[np.float32]) -> NDArray[np.bool_]:
-    return (
-        (points[:, 0] >= 0)
-        & (points[:, 0] < field.shape[1] - 1)
-        & (points[:, 1] >= 0)
-        & (points[:, 1] < field.shape[0] - 1)
+def _field_sample(
+    field: Field, matrix: NDArray[np.float64], points: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`_sample` of ``field`` at ``points`` moved by ``matrix``."""
+    return _sample(
+        field.image,
+        np.ascontiguousarray(matrix, dtype=np.float64),
+        np.ascontiguousarray(points, dtype=np.float64),
+        float(field.corner[0]),
+        float(field.corner[1]),
+        float(field.scale),
     )
 
 
-def _objective(field: NDArray[np.float32], points: NDArray[np.float64]) -> float:
-    ok = _inside(points, field)
-    value, _, _ = _bilinear(field, points[ok, 0], points[ok, 1])
+def _objective(field: Field, matrix: NDArray[np.float64], points: NDArray[np.float64]) -> float:
+    """``Σ M`` over ``points`` moved by ``matrix`` (those landing off the field add 0)."""
+    _, value, _, _ = _field_sample(field, matrix, points)
     return float(value.sum())
 
 
@@ -254,19 +296,16 @@ def _gauss_newton(
     A step that lowers ``Σ M`` is taken back and halved (at most
     ``params.backtracks`` times in a row); the best transform seen is returned.
     """
-    image, scale = field.image, field.scale
+    scale = field.scale
     best, best_total = start, -np.inf
     current = start
     step = np.zeros(3)
     pivot = np.zeros(2)
     halvings = 0
     for _ in range(iterations + params.backtracks):
-        landed = apply_transform(current, points)
-        moved = field.locate(landed)
-        ok = _inside(moved, image)
-        if np.count_nonzero(ok) < 3:
+        landed, value, gx, gy = _field_sample(field, current, points)
+        if len(value) < 3:
             break
-        value, gx, gy = _bilinear(image, moved[ok, 0], moved[ok, 1])
         total = float(value.sum())
         if total <= best_total:
             if halvings == params.backtracks:
@@ -276,17 +315,9 @@ def _gauss_newton(
             current = _step_matrix(step, pivot) @ best
             continue
         best, best_total, halvings = current, total, 0
-        gx, gy = gx / scale, gy / scale
-        pivot = landed[ok].mean(axis=0)
-        rel = landed[ok] - pivot
-        # The rotation unknown is measured in cells of RMS motion (turn times the
-        # RMS radius), like the translation, so that damping and step limits
-        # treat all three alike on a map of any size.
-        radius = float(np.sqrt(np.mean(np.sum(rel**2, axis=1)))) + 1e-9
-        jacobian = np.column_stack([gx, gy, (-gx * rel[:, 1] + gy * rel[:, 0]) / radius])
-        normal = jacobian.T @ jacobian
+        pivot, radius, normal, rhs = _normal_equations(landed, value, gx, gy, scale)
         normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
-        motion = params.newton_factor * np.linalg.solve(normal, jacobian.T @ (1.0 - value))
+        motion = params.newton_factor * np.linalg.solve(normal, rhs)
         length = float(np.linalg.norm(motion))
         longest = max(params.max_step_cells, params.max_step_sigmas * field.sigma)
         if length > longest:
@@ -296,6 +327,49 @@ def _gauss_newton(
         step = np.array([motion[0], motion[1], motion[2] / radius])
         current = _step_matrix(step, pivot) @ best
     return best
+
+
+@numba.njit(cache=True, nogil=True)
+def _normal_equations(
+    landed: NDArray[np.float64],
+    value: NDArray[np.float64],
+    grad_x: NDArray[np.float64],
+    grad_y: NDArray[np.float64],
+    scale: float,
+) -> tuple[NDArray[np.float64], float, NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss-Newton's normal equations ``JᵀJ ξ = Jᵀ(1 - M)`` for a motion about the pivot.
+
+    ``landed`` are the moved cells, ``value`` and ``grad_*`` the field and its
+    gradient there (image pixels, ``scale`` cells each). The unknowns are the
+    shift along x and y and the turn about the cells' mean (the pivot),
+    measured in cells of RMS motion (turn times the RMS radius), like the
+    shift, so that damping and step limits treat all three alike on a map of
+    any size. Returns the pivot, the RMS radius, ``JᵀJ`` and ``Jᵀ(1 - M)``.
+    """
+    count = landed.shape[0]
+    pivot = np.zeros(2)
+    for i in range(count):
+        pivot[0] += landed[i, 0]
+        pivot[1] += landed[i, 1]
+    pivot /= count
+    spread = 0.0
+    for i in range(count):
+        spread += (landed[i, 0] - pivot[0]) ** 2 + (landed[i, 1] - pivot[1]) ** 2
+    radius = np.sqrt(spread / count) + 1e-9
+    normal = np.zeros((3, 3))
+    rhs = np.zeros(3)
+    row = np.empty(3)
+    for i in range(count):
+        gx, gy = grad_x[i] / scale, grad_y[i] / scale
+        row[0] = gx
+        row[1] = gy
+        row[2] = (-gx * (landed[i, 1] - pivot[1]) + gy * (landed[i, 0] - pivot[0])) / radius
+        residual = 1.0 - value[i]
+        for j in range(3):
+            rhs[j] += row[j] * residual
+            for k in range(3):
+                normal[j, k] += row[j] * row[k]
+    return pivot, radius, normal, rhs
 
 
 def _step_matrix(step: NDArray[np.float64], pivot: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -342,7 +416,7 @@ def constraint_strength(
     def objective(delta: NDArray[np.float64]) -> float:
         update = rotation_about(delta[2], pivot)
         update[:2, 2] += delta[:2]
-        return _objective(field.image, field.locate(apply_transform(update @ matrix, points)))
+        return _objective(field, update @ matrix, points)
 
     centre = objective(np.zeros(3))
     hessian = np.zeros((3, 3))

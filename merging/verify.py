@@ -16,12 +16,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
+from scipy.special import expit
 
 from merging.grid import free_mask, occupied_mask
 from merging.params import ConfidenceParams, VerifyParams
-from merging.transforms import apply_transform
 
 DEFAULT_VERIFY = VerifyParams()
 """The default verification settings."""
@@ -189,30 +190,58 @@ class Verification:
         return self.quality + walls + space
 
 
-def _landing(points: NDArray[np.float64], target: PreparedMap) -> tuple[float, float, float]:
-    """Counts of ``points`` (in ``target``'s cells) on known, near-wall and clear-free cells."""
-    cols = np.rint(points[:, 0]).astype(np.intp)
-    rows = np.rint(points[:, 1]).astype(np.intp)
-    rows_n, cols_n = target.shape
-    inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
-    rows, cols = rows[inside], cols[inside]
-    known = target.cells[rows, cols] >= 0
-    near = target.near_occupied[rows, cols]
-    clear = target.clear_free[rows, cols]
-    return (
-        float(np.count_nonzero(known | near)),
-        float(np.count_nonzero(near)),
-        float(np.count_nonzero(clear)),
+@numba.njit(cache=True, nogil=True)
+def _count_landings(
+    matrix: NDArray[np.float64],
+    points: NDArray[np.float64],
+    stride: int,
+    cells: NDArray[np.int8],
+    near_occupied: NDArray[np.bool_],
+    clear_free: NDArray[np.bool_],
+) -> tuple[float, float, float]:
+    """Carry every ``stride``-th of ``points`` by ``matrix`` into a map's cells (nearest,
+    rounding half to even); counts of those landing on known or near-wall cells, on
+    near-wall cells and on clear free cells. Cells off the map count in none."""
+    rows, cols = cells.shape
+    a, b, c = matrix[0, 0], matrix[0, 1], matrix[0, 2]
+    d, e, f = matrix[1, 0], matrix[1, 1], matrix[1, 2]
+    known = near = clear = 0
+    for i in range(0, points.shape[0], stride):
+        px, py = points[i, 0], points[i, 1]
+        col = int(np.rint(px * a + py * b + c))
+        row = int(np.rint(px * d + py * e + f))
+        if row < 0 or row >= rows or col < 0 or col >= cols:
+            continue
+        if near_occupied[row, col]:
+            near += 1
+            known += 1
+        elif cells[row, col] >= 0:
+            known += 1
+        if clear_free[row, col]:
+            clear += 1
+    return float(known), float(near), float(clear)
+
+
+def _landing(
+    matrix: NDArray[np.float64], points: NDArray[np.float64], stride: int, target: PreparedMap
+) -> tuple[float, float, float]:
+    """Counts of ``points`` moved by ``matrix`` on ``target``'s known, near-wall and
+    clear-free cells (:func:`_count_landings`)."""
+    return _count_landings(
+        np.ascontiguousarray(matrix, dtype=np.float64),
+        points,
+        stride,
+        target.cells,
+        target.near_occupied,
+        target.clear_free,
     )
 
 
-def _open_landing(points: NDArray[np.float64], target: PreparedMap) -> float:
-    """How many of ``points`` (in ``target``'s cells) land on its clear free space."""
-    cols = np.rint(points[:, 0]).astype(np.intp)
-    rows = np.rint(points[:, 1]).astype(np.intp)
-    rows_n, cols_n = target.shape
-    inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
-    return float(np.count_nonzero(target.clear_free[rows[inside], cols[inside]]))
+def _open_landing(
+    matrix: NDArray[np.float64], points: NDArray[np.float64], stride: int, target: PreparedMap
+) -> float:
+    """How many of ``points`` moved by ``matrix`` land on ``target``'s clear free space."""
+    return _landing(matrix, points, stride, target)[2]
 
 
 def verify(
@@ -232,22 +261,18 @@ def verify(
     :func:`confidence` needs, to rank hypotheses faster. ``params`` gives the
     weights stored in the result (the lookups were made by :func:`prepare_map`).
     """
-    inverse = np.linalg.inv(matrix)
-    forward = apply_transform(matrix, second.points[::stride])
-    backward = apply_transform(inverse, first.points[::stride])
-    known_f, near_f, clear_f = _landing(forward, first)
-    known_b, near_b, clear_b = _landing(backward, second)
+    inverse = np.asarray(np.linalg.inv(matrix), dtype=np.float64)
+    known_f, near_f, clear_f = _landing(matrix, second.points, stride, first)
+    known_b, near_b, clear_b = _landing(inverse, first.points, stride, second)
     weight1, weight2 = first.point_weight * stride, second.point_weight * stride
     known = known_f * weight2 + known_b * weight1
     near = near_f * weight2 + near_b * weight1
     clear = clear_f * weight2 + clear_b * weight1
     shared = 0.0
     if space:
-        shared = _open_landing(apply_transform(matrix, second.open_points[::stride]), first) * (
+        shared = _open_landing(matrix, second.open_points, stride, first) * (
             second.open_weight * stride
-        ) + _open_landing(apply_transform(inverse, first.open_points[::stride]), second) * (
-            first.open_weight * stride
-        )
+        ) + _open_landing(inverse, first.open_points, stride, second) * (first.open_weight * stride)
     weights = (params.conflict_weight, params.overlap_preference, params.space_preference)
     if known <= 0:
         return Verification(0.0, 0.0, 0.0, 0.0, shared, *weights)
@@ -297,14 +322,12 @@ def confidence_factors(
     (the default method passes the quality at ``ConfidenceParams.fit_tolerance``).
     """
     quality = best.quality if fit_quality is None else fit_quality
-    fit = 1.0 / (1.0 + np.exp(-(quality - params.fit_centre) / params.fit_width))
+    fit = expit((quality - params.fit_centre) / params.fit_width)
     support = 1.0 - np.exp(-best.agreeing / params.support_scale)
     share = 0.0
     if runner_up is not None and best.net > 0:
         share = max(runner_up.net, 0.0) / best.net
-    distinct = 1.0 / (
-        1.0 + np.exp(-((1.0 - share) - params.distinct_margin) / params.distinct_width)
-    )
+    distinct = expit(((1.0 - share) - params.distinct_margin) / params.distinct_width)
     constrained = (
         1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / params.strength_scale)
     )

@@ -11,11 +11,12 @@ from scipy import ndimage
 import merging
 from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
 from merging.params import TomographicParams
-from merging.refine import SmoothedMap, refine_transform
+from merging.refine import Field, SmoothedMap, _field_sample, _normal_equations, refine_transform
 from merging.tomographic import refine_from
-from merging.transforms import rigid_matrix
+from merging.transforms import apply_transform, rigid_matrix
 from merging.verify import (
     Verification,
+    _landing,
     confidence,
     confidence_factors,
     dilate,
@@ -157,3 +158,64 @@ def test_refine_from_validates_its_input(building: np.ndarray) -> None:
         refine_from(building, building, np.eye(3), params=object())  # type: ignore[arg-type]
     grid = merging.OccupancyGrid(building)
     assert refine_from(grid, grid, rigid_matrix(0.8, -0.5, 0.002)).accepted
+
+
+def test_compiled_field_sampling_matches_numpy() -> None:
+    # The refinement's compiled lookup against the same steps written in numpy:
+    # move, locate in the field's pixels, keep what lands inside, interpolate.
+    generator = np.random.default_rng(4)
+    image = generator.random((40, 50)).astype(np.float32)
+    field = Field(image, scale=2.0, corner=(6, 4))
+    points = generator.uniform(-20, 110, (500, 2))
+    matrix = rigid_matrix(3.5, -2.0, 0.3)
+    landed, value, grad_x, grad_y = _field_sample(field, matrix, points)
+    moved = apply_transform(matrix, points)
+    pixels = field.locate(moved)
+    ok = (
+        (pixels[:, 0] >= 0)
+        & (pixels[:, 0] < image.shape[1] - 1)
+        & (pixels[:, 1] >= 0)
+        & (pixels[:, 1] < image.shape[0] - 1)
+    )
+    assert 0 < ok.sum() < len(points)
+    x, y = pixels[ok, 0], pixels[ok, 1]
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - x0, y - y0
+    v00, v01 = image[y0, x0], image[y0, x0 + 1]
+    v10, v11 = image[y0 + 1, x0], image[y0 + 1, x0 + 1]
+    top, bottom = v00 * (1 - fx) + v01 * fx, v10 * (1 - fx) + v11 * fx
+    np.testing.assert_allclose(landed, moved[ok], atol=1e-9)
+    np.testing.assert_allclose(value, top * (1 - fy) + bottom * fy, atol=1e-6)
+    np.testing.assert_allclose(grad_x, (v01 - v00) * (1 - fy) + (v11 - v10) * fy, atol=1e-6)
+    np.testing.assert_allclose(grad_y, bottom - top, atol=1e-6)
+
+
+def test_compiled_normal_equations_match_numpy() -> None:
+    generator = np.random.default_rng(5)
+    landed = generator.uniform(0, 100, (300, 2))
+    value, grad_x, grad_y = generator.random((3, 300))
+    pivot, radius, normal, rhs = _normal_equations(landed, value, grad_x, grad_y, 2.0)
+    rel = landed - landed.mean(axis=0)
+    expected_radius = np.sqrt(np.mean(np.sum(rel**2, axis=1))) + 1e-9
+    gx, gy = grad_x / 2.0, grad_y / 2.0
+    jacobian = np.column_stack([gx, gy, (-gx * rel[:, 1] + gy * rel[:, 0]) / expected_radius])
+    np.testing.assert_allclose(pivot, landed.mean(axis=0))
+    assert radius == pytest.approx(expected_radius)
+    np.testing.assert_allclose(normal, jacobian.T @ jacobian, rtol=1e-10)
+    np.testing.assert_allclose(rhs, jacobian.T @ (1.0 - value), rtol=1e-10)
+
+
+def test_compiled_landing_counts_match_numpy(building: np.ndarray) -> None:
+    first, second = prepare_map(building), prepare_map(turned(building, 20.0, (5, -3))[0])
+    matrix = rigid_matrix(12.0, -7.0, 0.35)
+    for stride in (1, 3):
+        counts = _landing(matrix, second.points, stride, first)
+        moved = apply_transform(matrix, second.points[::stride])
+        cols, rows = np.rint(moved[:, 0]).astype(int), np.rint(moved[:, 1]).astype(int)
+        inside = (rows >= 0) & (rows < first.shape[0]) & (cols >= 0) & (cols < first.shape[1])
+        rows, cols = rows[inside], cols[inside]
+        near = first.near_occupied[rows, cols]
+        known = (first.cells[rows, cols] >= 0) | near
+        clear = first.clear_free[rows, cols]
+        assert counts == (known.sum(), near.sum(), clear.sum())
+        assert counts[1] > 0 and counts[0] > counts[1]
