@@ -90,8 +90,11 @@ def rotation_correlation(first: AngularSpectrum, second: AngularSpectrum) -> NDA
     -------
     (n_angles,) float ndarray
         ``C`` at ``φ = a * angle_step_deg`` for ``a = 0..n_angles-1``; it peaks
-        where map 2's structure is map 1's rotated counter-clockwise by φ.
+        where map 2's structure is map 1's rotated counter-clockwise by φ; all
+        zero when the spectra hold no frequency (maps too small to have one).
     """
+    if first.values.shape[1] == 0:
+        return np.zeros(first.values.shape[0])
     spectrum1 = fft.rfft(first.values, axis=0)
     spectrum2 = fft.rfft(second.values, axis=0)
     per_frequency = fft.irfft(np.conj(spectrum1) * spectrum2, n=first.values.shape[0], axis=0)

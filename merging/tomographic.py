@@ -312,6 +312,15 @@ def _merge_observed(
     timings["prepare"] = time.perf_counter() - clock
 
     pool = _search(maps, factor, timings)
+    if not pool:
+        return MergeResult(
+            matrix=np.eye(3),
+            confidence=0.0,
+            accepted=False,
+            method="tomographic",
+            timings=timings,
+            reason="no placement to weigh: the maps are too small to hold a wall direction",
+        )
     best = pool[0][1]
     runner_up = next(
         (c for c in pool[1:] if _rms_between(c[1], best, second.points) > params.distinct_cells),
