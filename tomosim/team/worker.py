@@ -41,6 +41,7 @@ from typing import Any, Protocol
 from merging import estimate_transform
 from merging.grid import OccupancyGrid
 from merging.result import MergeResult
+from tomosim.search_worker import READY
 
 
 class Searches(Protocol):
@@ -112,11 +113,12 @@ class _Worker:
     """The worker process of this process, a thread that writes it the jobs and one that
     reads its answers.
 
-    Jobs wait in a queue until the worker is idle, and only then does the writing
-    thread send it the next (a job, two grids, is larger than a pipe holds, so
-    writing it would block until the worker read it): the caller, stepping a
-    simulation meanwhile, never waits for the pipe, and a job the worker has not
-    started can still be taken back (:meth:`take`) and run by a caller that would
+    Jobs wait in a queue until the worker has said it is ready (warmed up) and
+    is idle, and only then does the writing thread send it the next (a job, two
+    grids, is larger than a pipe holds, so writing it would block until the
+    worker read it): the caller, stepping a simulation meanwhile, never waits
+    for the pipe, and a job the worker has not started can still be taken back
+    (:meth:`take`) and run by a caller that would
     otherwise wait idle for it.
     """
 
@@ -132,6 +134,7 @@ class _Worker:
         self.queued: dict[int, tuple[_Job, tuple[Any, ...]]] = {}  # not sent yet, in order
         self.next_job = 0
         self.ended: RuntimeError | None = None  # set once the worker is known to have ended
+        self.ready = False  # set once the worker has said it is warmed up
         writer = threading.Thread(target=self._write, name="merge-search-jobs", daemon=True)
         writer.start()
         reader = threading.Thread(target=self._read, name="merge-search-results", daemon=True)
@@ -175,8 +178,8 @@ class _Worker:
         assert stdin is not None  # opened as a pipe
         while True:
             with self.lock:
-                # Wait while the worker is busy, or idle for lack of jobs.
-                while self.ended is None and (self.futures or not self.queued):
+                # Wait while the worker starts, is busy, or is idle for lack of jobs.
+                while self.ended is None and (not self.ready or self.futures or not self.queued):
                     self.lock.wait()
                 if self.ended is not None:
                     return
@@ -193,6 +196,16 @@ class _Worker:
     def _read(self) -> None:
         stdout = self.process.stdout
         assert stdout is not None  # opened as a pipe
+        try:
+            said = pickle.load(stdout)
+        except (EOFError, OSError, pickle.UnpicklingError):
+            said = None
+        if said != READY:
+            self._end()
+            return
+        with self.lock:
+            self.ready = True
+            self.lock.notify_all()
         while True:
             try:
                 number, ok, value = pickle.load(stdout)
