@@ -58,6 +58,8 @@ def test_frontiers_are_free_cells_beside_unknown_ones() -> None:
     np.testing.assert_array_equal(mask, expected)
     clusters = frontier_clusters(state, min_size=1)
     assert [c.size for c in clusters] == [11]  # 4 + 4 + 5, two corners shared
+    rows, cols = np.nonzero(expected)
+    assert {tuple(c) for c in clusters[0].cells} == set(zip(cols, rows, strict=True))  # (x, y)
     assert frontier_clusters(state, min_size=12) == []
 
 
@@ -68,12 +70,12 @@ def test_wavefront_costs_are_path_lengths_and_paths_avoid_walls() -> None:
     grid = OccupancyGrid.from_bool(occupied, resolution=0.05)
     config = PlannerConfig(resolution=0.1, wall_penalty=0.0)
     planning = planning_grid(grid, config)
-    start = (10, 10)
+    start = (10, 10)  # (x, y)
     wave = Wavefront(planning, start)
     # Straight along a free row: one unit per planning cell.
-    assert wave.costs(np.array([[10, 20]]))[0] == pytest.approx(10.0)
+    assert wave.costs(np.array([[20, 10]]))[0] == pytest.approx(10.0)
     # Behind the wall, the path must go round through the gap.
-    goal = (10, 40)
+    goal = (40, 10)
     path = wave.path(goal)
     points = planning.to_frame(path)
     assert np.all(points[:, 1] >= 0.0)
@@ -89,9 +91,9 @@ def test_inflation_blocks_gaps_narrower_than_the_robot() -> None:
     occupied[:, 40] = True
     occupied[18:24, 40] = False  # a 0.3 m slit, narrower than a 0.4 m robot
     planning = planning_grid(OccupancyGrid.from_bool(occupied, resolution=0.05), PlannerConfig())
-    wave = Wavefront(planning, (10, 5))
-    assert np.isinf(wave.costs(np.array([[10, 30]]))[0])
-    assert np.isfinite(wave.costs(np.array([[10, 15]]))[0])
+    wave = Wavefront(planning, (5, 10))  # (x, y)
+    assert np.isinf(wave.costs(np.array([[30, 10]]))[0])
+    assert np.isfinite(wave.costs(np.array([[15, 10]]))[0])
 
 
 def test_follower_turns_towards_and_drives_along_its_path() -> None:

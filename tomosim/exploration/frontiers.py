@@ -72,7 +72,7 @@ class Frontier:
     Attributes
     ----------
     cells : (K, 2) int ndarray
-        ``(row, col)`` of its cells in the planning grid.
+        ``(x, y) = (col, row)`` of its cells in the planning grid.
     size : int
         ``K``.
     """
@@ -100,5 +100,5 @@ def frontier_clusters(state: NDArray[np.uint8], *, min_size: int = 1) -> list[Fr
     clusters = []
     for r, c in zip(np.split(rows, splits), np.split(cols, splits), strict=True):
         if len(r) >= min_size:
-            clusters.append(Frontier(np.column_stack([r, c]), len(r)))
+            clusters.append(Frontier(np.column_stack([c, r]), len(r)))
     return clusters

@@ -99,22 +99,25 @@ class PlanningGrid:
     cell_to_frame: NDArray[np.float64]
 
     def to_cells(self, points: ArrayLike) -> NDArray[np.intp]:
-        """``(N, 2)`` frame points (metres) to the ``(row, col)`` of their planning cells."""
+        """``(N, 2)`` frame points (metres) to the ``(x, y)`` of their planning cells."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         inverse = np.linalg.inv(self.cell_to_frame)
-        xy = pts @ inverse[:2, :2].T + inverse[:2, 2]
-        return np.rint(xy[:, ::-1]).astype(np.intp)
+        return np.rint(pts @ inverse[:2, :2].T + inverse[:2, 2]).astype(np.intp)
 
     def to_frame(self, cells: ArrayLike) -> NDArray[np.float64]:
-        """``(N, 2)`` ``(row, col)`` planning cells to their centres in metres."""
-        rc = np.asarray(cells, dtype=float).reshape(-1, 2)
-        xy = rc[:, ::-1]
+        """``(N, 2)`` ``(x, y)`` planning cells to their centres in metres."""
+        xy = np.asarray(cells, dtype=float).reshape(-1, 2)
         return xy @ self.cell_to_frame[:2, :2].T + self.cell_to_frame[:2, 2]
 
     def inside(self, cells: NDArray[np.intp]) -> NDArray[np.bool_]:
-        """Which ``(row, col)`` cells lie on the grid."""
-        rows, cols = self.state.shape
-        return (cells[:, 0] >= 0) & (cells[:, 0] < rows) & (cells[:, 1] >= 0) & (cells[:, 1] < cols)
+        """Which ``(x, y)`` cells lie on the grid."""
+        return _inside(cells, self.state.shape)
+
+
+def _inside(cells: NDArray[np.intp], shape: tuple[int, ...]) -> NDArray[np.bool_]:
+    """Which ``(x, y)`` cells lie on a grid of ``shape = (rows, cols)``."""
+    rows, cols = shape
+    return (cells[:, 0] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] >= 0) & (cells[:, 1] < rows)
 
 
 def planning_grid(grid: OccupancyGrid, config: PlannerConfig) -> PlanningGrid:
@@ -151,40 +154,39 @@ class Wavefront:
 
     def __init__(self, planning: PlanningGrid, start: tuple[int, int]) -> None:
         rows, cols = planning.state.shape
+        x, y = start
         known_rows, known_cols = np.nonzero(planning.state != UNKNOWN_CELL)
         if len(known_rows) == 0:
-            known_rows, known_cols = np.array([start[0]]), np.array([start[1]])
-        r0 = max(0, min(int(known_rows.min()), start[0]) - CROP_MARGIN_CELLS)
-        c0 = max(0, min(int(known_cols.min()), start[1]) - CROP_MARGIN_CELLS)
-        r1 = min(rows, max(int(known_rows.max()), start[0]) + CROP_MARGIN_CELLS + 1)
-        c1 = min(cols, max(int(known_cols.max()), start[1]) + CROP_MARGIN_CELLS + 1)
-        self.offset = (r0, c0)
+            known_rows, known_cols = np.array([y]), np.array([x])
+        r0 = max(0, min(int(known_rows.min()), y) - CROP_MARGIN_CELLS)
+        c0 = max(0, min(int(known_cols.min()), x) - CROP_MARGIN_CELLS)
+        r1 = min(rows, max(int(known_rows.max()), y) + CROP_MARGIN_CELLS + 1)
+        c1 = min(cols, max(int(known_cols.max()), x) + CROP_MARGIN_CELLS + 1)
+        self.offset = (c0, r0)
         self.shape = (rows, cols)
         costs = planning.costs[r0:r1, c0:c1]
         self._mcp = MCP_Geometric(costs, fully_connected=True)
-        self.start = (start[0] - r0, start[1] - c0)
-        self.reachable = np.isfinite(costs[self.start])
+        self.start = (x - c0, y - r0)
+        self.reachable = np.isfinite(costs[self.start[1], self.start[0]])
         if self.reachable:
-            cumulative, _ = self._mcp.find_costs([self.start])
+            # skimage's minimum-cost paths index arrays: (row, col).
+            cumulative, _ = self._mcp.find_costs([(self.start[1], self.start[0])])
         else:
             cumulative = np.full(costs.shape, np.inf)
         self._cumulative = cumulative
 
     def costs(self, cells: NDArray[np.intp]) -> NDArray[np.float64]:
-        """Cost of reaching each ``(row, col)`` cell; ``inf`` if unreachable or off the crop."""
+        """Cost of reaching each ``(x, y)`` cell; ``inf`` if unreachable or off the crop."""
         local = cells - np.asarray(self.offset)
-        rows, cols = self._cumulative.shape
-        inside = (
-            (local[:, 0] >= 0) & (local[:, 0] < rows) & (local[:, 1] >= 0) & (local[:, 1] < cols)
-        )
+        inside = _inside(local, self._cumulative.shape)
         out = np.full(len(cells), np.inf)
-        out[inside] = self._cumulative[local[inside, 0], local[inside, 1]]
+        out[inside] = self._cumulative[local[inside, 1], local[inside, 0]]
         return out
 
     def path(self, cell: tuple[int, int]) -> NDArray[np.intp]:
-        """``(K, 2)`` ``(row, col)`` cells from the start to ``cell``, which must be reachable."""
-        local = (cell[0] - self.offset[0], cell[1] - self.offset[1])
-        if not np.isfinite(self._cumulative[local]):
+        """``(K, 2)`` ``(x, y)`` cells from the start to ``cell``, which must be reachable."""
+        x, y = cell[0] - self.offset[0], cell[1] - self.offset[1]
+        if not np.isfinite(self._cumulative[y, x]):
             raise ValueError(f"cell {cell} cannot be reached from the start")
-        steps = np.asarray(self._mcp.traceback(local), dtype=np.intp).reshape(-1, 2)
-        return steps + np.asarray(self.offset)
+        steps = np.asarray(self._mcp.traceback((y, x)), dtype=np.intp).reshape(-1, 2)
+        return steps[:, ::-1] + np.asarray(self.offset)

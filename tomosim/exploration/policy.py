@@ -119,9 +119,9 @@ def _start_cell(
 ) -> tuple[int, int] | None:
     """The robot's planning cell, or the nearest passable one within ``radius`` metres."""
     cell = planning.to_cells(position)
-    if planning.inside(cell)[0] and np.isfinite(planning.costs[cell[0, 0], cell[0, 1]]):
+    if planning.inside(cell)[0] and np.isfinite(planning.costs[cell[0, 1], cell[0, 0]]):
         return (int(cell[0, 0]), int(cell[0, 1]))
-    passable = np.argwhere(np.isfinite(planning.costs))
+    passable = np.argwhere(np.isfinite(planning.costs))[:, ::-1]  # (x, y), row by row
     if len(passable) == 0:
         return None
     distance = np.hypot(*(planning.to_frame(passable) - position).T)

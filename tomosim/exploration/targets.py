@@ -49,7 +49,7 @@ class Candidate:
     Attributes
     ----------
     cells : (K, 2) int ndarray
-        ``(row, col)`` of its reachable cells in the planning grid.
+        ``(x, y) = (col, row)`` of its reachable cells in the planning grid.
     points : (K, 2) float ndarray
         Their centres in metres, in the robot's frame.
     costs : (K,) float ndarray
