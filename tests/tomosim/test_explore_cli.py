@@ -162,7 +162,7 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
         (["explore", "--spawn", "--serve-web"], ["not allowed with"]),
         (["explore", "--steps", "0"], ["--steps"]),
         (["explore", "--merge-interval", "0"], ["--merge-interval"]),
-        (["explore", "--method", "nope"], ["unknown method 'nope'"]),
+        (["explore", "--method", "nope"], ["unknown merging method 'nope'"]),
         (["explore", "--record", "run.txt"], [".rrd"]),
         (["explore", "--world", "map.png"], ["--world must be a seed or a map_server .yaml"]),
         (["explore", "--coverage-target", "1.5"], ["--coverage-target"]),

@@ -37,7 +37,7 @@ from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
 from tomosim.recording import LiveViewer, Recorder, RecordingError
 from tomosim.recording.sinks import DEFAULT_VIEWER_URL, DEFAULT_WEB_PORT
-from tomosim.team import ORACLE, team_methods
+from tomosim.team import ORACLE, check_team_method, team_methods
 from tomosim.worlds.world import NoRoomError
 
 NAME = "explore"
@@ -174,9 +174,10 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
     if not 0.0 < args.coverage_target <= 1.0:
         raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
-    if args.method not in team_methods():
-        choices = ", ".join(team_methods())
-        raise UsageError(f"unknown method {args.method!r}; choose one of: {choices}")
+    try:
+        check_team_method(args.method)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
     if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
         raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
     if args.line_of_sight and args.comm_range is None:

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from merging import OccupancyGrid, available_methods, load_map, merge_all, save_map
+from merging import OccupancyGrid, available_methods, check_method, load_map, merge_all, save_map
 from merging.api import DEFAULT_METHOD
 from merging.resample import common_resolution
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
@@ -131,9 +131,10 @@ def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -
         raise UsageError(f"--demo seed must be a non-negative integer, got {args.demo}")
     if args.seed < 0:
         raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
-    if args.method not in available_methods():
-        choices = ", ".join(available_methods()) or "none registered"
-        raise UsageError(f"unknown method {args.method!r}; choose one of: {choices}")
+    try:
+        check_method(args.method)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
     if output.suffix not in MAP_SUFFIXES:
         raise UsageError(
             f"output must be a .yaml file (the image is written beside it), got {output}"

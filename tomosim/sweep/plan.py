@@ -70,10 +70,10 @@ class SweepPlan:
         for name in ("worlds", "robots", "policies", "methods", "seeds"):
             if len(getattr(self, name)) == 0:
                 raise ValueError(f"a sweep needs at least one value of {name}")
-        known = set(team_methods()) | {NO_MERGE}
-        unknown = [m for m in self.methods if m not in known]
+        unknown = [m for m in self.methods if m != NO_MERGE and m not in team_methods()]
         if unknown:
-            raise ValueError(f"unknown merging method(s) {unknown}; choose from {sorted(known)}")
+            choices = ", ".join([*team_methods(), NO_MERGE])
+            raise ValueError(f"unknown merging method(s) {unknown}; choose from: {choices}")
         strange = [p for p in self.policies if p not in chooser_names()]
         if strange:
             raise ValueError(
