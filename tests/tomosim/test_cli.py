@@ -56,7 +56,10 @@ def test_no_command_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None
         (["merge", "a.yaml", "b.yaml"], "-o/--output"),
         (["merge", "a.yaml", "b.yaml", "-o", "m.yaml", "--seed", "x"], "--seed"),
         (["merge", "a.yaml", "b.yaml", "-o", "m.yaml", "--seed", "-3"], "non-negative"),
-        (["merge", "a.yaml", "b.yaml", "-o", "m.yaml", "--method", "nope"], "unknown merging method"),
+        (
+            ["merge", "a.yaml", "b.yaml", "-o", "m.yaml", "--method", "nope"],
+            "unknown merging method",
+        ),
         (["merge", "a.yaml", "b.yaml", "-o", "m.pgm"], ".yaml"),
         (["merge", "a.yaml", "b.yaml", "-o", "a.yaml"], "also an input"),
         (["merge", "a.yaml", "--demo", "-o", "m.yaml"], "not both"),
