@@ -18,9 +18,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy import fft, ndimage
+from scipy import fft
 
 from merging.params import RotationParams
 
@@ -75,12 +76,35 @@ def angular_spectrum(
     # Sample |F| at (kx, ky) = k (cos α, sin α); array axes are (ky, kx).
     kx = centre + np.outer(np.cos(alphas), radii)
     ky = centre + np.outer(np.sin(alphas), radii)
-    samples = ndimage.map_coordinates(magnitude, [ky.ravel(), kx.ravel()], order=1)
+    samples = _bilinear(magnitude, ky.ravel(), kx.ravel())
     values = np.log1p(samples.reshape(n_angles, len(radii)))
     values -= values.mean(axis=0, keepdims=True)
     norms = np.linalg.norm(values, axis=0, keepdims=True)
     values /= np.where(norms > 0, norms, 1.0)
     return AngularSpectrum(values.astype(np.float64), step)
+
+
+@numba.njit(cache=True, nogil=True)
+def _bilinear(
+    image: NDArray[np.float32], rows: NDArray[np.float64], cols: NDArray[np.float64]
+) -> NDArray[np.float32]:
+    """``image`` interpolated bilinearly at ``(rows, cols)``, all inside its last row and column.
+
+    The value :func:`scipy.ndimage.map_coordinates` gives with ``order=1``
+    (the same weights, summed in the same order; tested against it), for the
+    thousands of points of an angular spectrum at a tenth of the cost.
+    """
+    out = np.empty(rows.shape[0], dtype=np.float32)
+    for k in range(rows.shape[0]):
+        row0, col0 = int(np.floor(rows[k])), int(np.floor(cols[k]))
+        t_row, t_col = rows[k] - row0, cols[k] - col0
+        s_row, s_col = 1.0 - t_row, 1.0 - t_col
+        value = np.float64(image[row0, col0]) * s_row * s_col
+        value += np.float64(image[row0, col0 + 1]) * s_row * t_col
+        value += np.float64(image[row0 + 1, col0]) * t_row * s_col
+        value += np.float64(image[row0 + 1, col0 + 1]) * t_row * t_col
+        out[k] = value
+    return out
 
 
 def rotation_correlation(first: AngularSpectrum, second: AngularSpectrum) -> NDArray[np.float64]:

@@ -17,12 +17,13 @@ space, so a shift that lays map 2's walls across map 1's open rooms loses.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import fft, ndimage
+from scipy import fft
 
+from merging.blur import blur_walls
 from merging.params import TranslationParams
 from merging.transforms import rigid_matrix
 from merging.verify import PreparedMap
@@ -52,6 +53,15 @@ class CoarseMap:
     target: NDArray[np.float32]
     walls: NDArray[np.float32]
     points: NDArray[np.float64]
+    _spectra: dict[tuple[int, int], NDArray[np.complex64]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def target_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
+        """``rfft2`` of ``target`` zero-padded to ``size``, kept for the next rotation."""
+        if size not in self._spectra:
+            self._spectra[size] = fft.rfft2(self.target, s=size)
+        return self._spectra[size]
 
 
 def coarse_factor(
@@ -81,10 +91,10 @@ def coarsen(
     centre = factor // 2
     sampled = prepared.clear_free[centre::factor, centre::factor]
     clear[: sampled.shape[0], : sampled.shape[1]] = sampled
-    blurred = ndimage.gaussian_filter(walls, params.wall_blur)
+    wall_rows, wall_cols = np.nonzero(walls)
+    blurred = blur_walls(wall_rows, wall_cols, shape, params.wall_blur)
     blurred /= max(float(blurred.max()), 1e-9)
     target = (blurred - params.free_penalty * clear).astype(np.float32)
-    wall_rows, wall_cols = np.nonzero(walls)
     points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
     return CoarseMap(factor, target, walls, points)
 
@@ -125,15 +135,12 @@ def translation_peaks(
     moving[cells[:, 1], cells[:, 0]] = 1.0
     rows_a, cols_a = first.target.shape
     size = (fft.next_fast_len(rows_a + shape_b[0]), fft.next_fast_len(cols_a + shape_b[1]))
-    spectrum = fft.rfft2(first.target, s=size) * np.conj(fft.rfft2(moving, s=size))
+    spectrum = first.target_spectrum(size) * np.conj(fft.rfft2(moving, s=size))
     surface = fft.irfft2(spectrum, s=size)
-    # Index i means shift i (i < rows_a) or i - size (a negative shift).
-    valid = np.zeros(size, dtype=bool)
-    valid[:rows_a, :cols_a] = True
-    valid[size[0] - shape_b[0] + 1 :, :cols_a] = True
-    valid[:rows_a, size[1] - shape_b[1] + 1 :] = True
-    valid[size[0] - shape_b[0] + 1 :, size[1] - shape_b[1] + 1 :] = True
-    surface = np.where(valid, surface, -np.inf)
+    # Index i means shift i (i < rows_a) or i - size (a negative shift); the rows and
+    # columns between are shifts that lay the maps apart.
+    surface[rows_a : size[0] - shape_b[0] + 1, :] = -np.inf
+    surface[:, cols_a : size[1] - shape_b[1] + 1] = -np.inf
     mass = float(moving.sum())
     scale = np.array([[factor, 0, (factor - 1) / 2], [0, factor, (factor - 1) / 2], [0, 0, 1]])
     to_coarse = np.linalg.inv(scale)

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
+from merging.blur import blur_walls
 from merging.params import FROM_START, GaussNewtonParams
 from merging.transforms import apply_transform, rotation_about
 from merging.verify import PreparedMap
@@ -105,7 +105,6 @@ class SmoothedMap:
         scale = field_scale(sigma, self._downsample_from)
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
-        image = np.zeros((max(rows, 1), max(cols, 1)), dtype=np.float32)
         walls = self._walls
         if box is not None:
             inside = (
@@ -116,10 +115,10 @@ class SmoothedMap:
             )
             walls = walls[inside]
         cells = ((walls - np.array([x_lo, y_lo])) // scale).astype(np.intp)
-        image[cells[:, 1], cells[:, 0]] = 1.0
         width = sigma / scale
         # Scaled so that the centre of a one-cell wall is about 1.
-        smooth = ndimage.gaussian_filter(image, width, truncate=3.0)
+        smooth = blur_walls(cells[:, 1], cells[:, 0], (max(rows, 1), max(cols, 1)), width,
+                            truncate=3.0)  # fmt: skip
         smooth *= np.float32(np.sqrt(2 * np.pi) * width)
         field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo), sigma)
         if box is None:

@@ -85,7 +85,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
+from merging.angular import (
+    AngularSpectrum,
+    angular_spectrum,
+    rotation_correlation,
+    rotation_peaks,
+)
 from merging.api import register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
 from merging.grid import OccupancyGrid, observed_part, validate_cells
@@ -110,26 +115,49 @@ def rank(check: Verification) -> float:
 class _Maps:
     """Both prepared maps, map 1's fields and the settings: what every stage needs."""
 
-    __slots__ = ("first", "params", "second", "smoothed")
+    __slots__ = ("coarse_first", "first", "params", "second", "smoothed", "spectra_first")
+
+    smoothed: SmoothedMap
+    coarse_first: dict[int, CoarseMap]
+    spectra_first: dict[tuple[int, int], AngularSpectrum]
 
     def __init__(
         self,
         first: PreparedMap,
         second: PreparedMap,
         params: TomographicParams,
-        smoothed: SmoothedMap | None = None,
+        begun: _Maps | None = None,
     ):
-        """``smoothed``: map 1's fields, when another search has begun them."""
+        """``begun``: another search of the same map 1, whose images of it are reused."""
         self.first, self.second, self.params = first, second, params
+        if begun is not None:
+            self.smoothed = begun.smoothed
+            self.coarse_first = begun.coarse_first
+            self.spectra_first = begun.spectra_first
+            return
         gauss_newton = params.gauss_newton
-        if smoothed is None:
-            smoothed = SmoothedMap(
-                first.walls,
-                first.shape,
-                downsample_from_sigma=gauss_newton.downsample_from_sigma,
-                whole_field_share=gauss_newton.whole_field_share,
-            )
-        self.smoothed = smoothed
+        self.smoothed = SmoothedMap(
+            first.walls,
+            first.shape,
+            downsample_from_sigma=gauss_newton.downsample_from_sigma,
+            whole_field_share=gauss_newton.whole_field_share,
+        )
+        self.coarse_first = {}
+        self.spectra_first = {}
+
+    def first_coarse(self, factor: int) -> CoarseMap:
+        """Map 1 in blocks of ``factor`` cells (kept for another search with that factor)."""
+        if factor not in self.coarse_first:
+            self.coarse_first[factor] = coarsen(self.first, factor, params=self.params.translation)
+        return self.coarse_first[factor]
+
+    def first_spectrum(self, factor: int, size: int) -> AngularSpectrum:
+        """Map 1's angular spectrum in blocks of ``factor`` cells on an FFT of ``size``."""
+        key = (factor, size)
+        if key not in self.spectra_first:
+            walls, rotation = self.first_coarse(factor).walls, self.params.rotation
+            self.spectra_first[key] = angular_spectrum(walls, size=size, params=rotation)
+        return self.spectra_first[key]
 
     def verify(self, matrix: NDArray[np.float64]) -> Verification:
         return verify(self.first, self.second, matrix, params=self.params.verify)
@@ -164,15 +192,14 @@ def _rms_between(a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray
     return float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))
 
 
-def _rotation_hypotheses(
-    first: PreparedMap, second: PreparedMap, factor: int, params: TomographicParams
-) -> tuple[list[float], CoarseMap, CoarseMap]:
+def _rotation_hypotheses(maps: _Maps, factor: int) -> tuple[list[float], CoarseMap, CoarseMap]:
     """Rotation hypotheses (radians, for map 2 -> map 1), from angular spectra."""
-    coarse1 = coarsen(first, factor, params=params.translation)
-    coarse2 = coarsen(second, factor, params=params.translation)
+    params = maps.params
+    coarse1 = maps.first_coarse(factor)
+    coarse2 = coarsen(maps.second, factor, params=params.translation)
     size = int(2 ** np.ceil(np.log2(max(*coarse1.walls.shape, *coarse2.walls.shape, 8))))
     rotation = params.rotation
-    spectrum1 = angular_spectrum(coarse1.walls, size=size, params=rotation)
+    spectrum1 = maps.first_spectrum(factor, size)
     spectrum2 = angular_spectrum(coarse2.walls, size=size, params=rotation)
     peaks = rotation_peaks(
         rotation_correlation(spectrum1, spectrum2),
@@ -346,7 +373,7 @@ def _search(maps: _Maps, factor: int, timings: dict[str, float]) -> list[Candida
         timings[step] = now - clock
         clock = now
 
-    thetas, coarse1, coarse2 = _rotation_hypotheses(maps.first, maps.second, factor, params)
+    thetas, coarse1, coarse2 = _rotation_hypotheses(maps, factor)
     lap("rotation")
     candidates, correlation = _translation_hypotheses(coarse1, coarse2, thetas, params)
     lap("translation")
@@ -381,7 +408,7 @@ def _mirror_search(
             maps.first.shape, part.mirrored.shape, coarse_cells=params.translation.coarse_cells
         )
         lighter = replace(params, stages=params.mirror_stages)
-        pool = _search(_Maps(maps.first, part.mirrored, lighter, maps.smoothed), factor, {})
+        pool = _search(_Maps(maps.first, part.mirrored, lighter, begun=maps), factor, {})
         found = MirrorCandidates(part, tuple(m for _, m in pool))
         timings["mirror"] = time.perf_counter() - clock
         return found

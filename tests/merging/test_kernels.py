@@ -9,7 +9,8 @@ import pytest
 from scipy import ndimage
 
 import merging
-from merging.angular import angular_spectrum, rotation_correlation, rotation_peaks
+from merging.angular import _bilinear, angular_spectrum, rotation_correlation, rotation_peaks
+from merging.blur import blur_walls
 from merging.params import TomographicParams
 from merging.refine import Field, SmoothedMap, _field_sample, _normal_equations, refine_transform
 from merging.tomographic import refine_from
@@ -113,6 +114,41 @@ def test_dilate_matches_scipy(radius: int) -> None:
     mask[0, 0] = mask[-1, -1] = True  # the edges too
     expected = ndimage.binary_dilation(mask, structure=np.ones((2 * radius + 1,) * 2, bool))
     assert np.array_equal(dilate(mask, radius), expected)
+
+
+@pytest.mark.parametrize("sigma, truncate", [(0.6, 3.0), (1.0, 3.0), (2.0, 3.0), (1.5, 4.0)])
+def test_wall_blur_matches_scipy_cell_for_cell(sigma: float, truncate: float) -> None:
+    rng = np.random.default_rng(3)
+    for shape in ((57, 83), (4, 9), (1, 1)):
+        count = max(1, shape[0] * shape[1] // 20)
+        rows, cols = rng.integers(0, shape[0], count), rng.integers(0, shape[1], count)
+        rows[0], cols[0] = shape[0] - 1, shape[1] - 1  # an edge, where the blur reflects
+        image = np.zeros(shape, np.float32)
+        image[rows, cols] = 1.0
+        expected = ndimage.gaussian_filter(image, sigma, truncate=truncate)
+        blurred = blur_walls(rows, cols, shape, sigma, truncate=truncate)
+        assert blurred.dtype == np.float32
+        assert np.array_equal(blurred, expected)
+
+
+def test_wall_blur_of_a_real_map_matches_scipy(building: np.ndarray) -> None:
+    prepared = prepare_map(building)
+    cells = prepared.walls.astype(np.intp)
+    image = np.zeros(prepared.shape, np.float32)
+    image[cells[:, 1], cells[:, 0]] = 1.0
+    for sigma in (0.6, 1.0, 2.0):
+        expected = ndimage.gaussian_filter(image, sigma, truncate=3.0)
+        blurred = blur_walls(cells[:, 1], cells[:, 0], prepared.shape, sigma, truncate=3.0)
+        assert np.array_equal(blurred, expected)
+
+
+def test_compiled_bilinear_matches_map_coordinates() -> None:
+    rng = np.random.default_rng(4)
+    image = rng.random((40, 50)).astype(np.float32)
+    rows, cols = rng.uniform(0, 38.999, 500), rng.uniform(0, 48.999, 500)
+    rows[:5], cols[:5] = np.arange(5.0), np.arange(5.0)  # on the grid points too
+    expected = ndimage.map_coordinates(image, [rows, cols], order=1)
+    assert np.array_equal(_bilinear(image, rows, cols), expected)
 
 
 def test_verification_counts_agreement_and_conflict() -> None:
