@@ -56,11 +56,14 @@ class MergeResult:
         Why the result was not accepted, in words (empty when accepted).
     evidence : dict
         The numbers behind the verdict, by name, for methods that report
-        them (the default: ``agreement``, ``conflict``,
-        ``matching_wall_cells``, ``shared_open_cells``, ``strength``,
-        ``margin`` and ``runner_up_distance_cells`` against the best
-        different placement, the factors ``close_*`` and, when the close
-        fit fails, ``robust_*`` and ``tolerant_*``; for a placement a way
+        them (the default: ``agreement``, ``conflict``, ``quality`` (the
+        plain fit, ``agreement - conflict_weight * conflict``) and
+        ``fit_quality`` (the one the fit factor used, tolerant of bent maps
+        where that fits better), ``matching_wall_cells``,
+        ``shared_open_cells``, ``strength``, ``margin`` and
+        ``runner_up_distance_cells`` against the best different placement,
+        the factors ``close_*`` and, when the close fit fails, ``robust_*``
+        and ``tolerant_*``; for a placement a way
         would vouch for, ``mirror_share`` and ``close_mirror`` or
         ``tolerant_mirror_share`` and ``robust_mirror`` against map 2's
         mirror image; see :mod:`merging.verdict` and :mod:`merging.mirror`).

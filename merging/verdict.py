@@ -122,6 +122,7 @@ def judge(
     evidence: dict[str, float] = {
         "agreement": check.agreement,
         "conflict": check.conflict,
+        "quality": check.quality,
         "fit_quality": fit_quality,
         "matching_wall_cells": check.agreeing,
         "shared_open_cells": check.shared_space,

@@ -156,3 +156,30 @@ def test_searches_fail_rather_than_hang_once_the_worker_has_ended(
     for pipe in (own.process.stdin, own.process.stdout):
         assert pipe is not None
         pipe.close()
+
+
+@pytest.mark.parametrize("quality, starts", [(0.95, True), (0.7, False)])
+def test_a_searched_placement_starts_a_track_only_when_it_fits_closely(
+    monkeypatch: pytest.MonkeyPatch, quality: float, starts: bool
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from tomosim.team import tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    placed[0, 2] = 10.0
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
+    # The track's verdict accepts, fitting as closely as ``quality`` says (a tolerant fit
+    # of bent maps can accept what the plain fit does not).
+    verdict = MergeResult(placed, 0.8, True, TRACKED, placed, evidence={"quality": quality})
+    monkeypatch.setattr(tracking_module, "track_transform", lambda *a, **k: verdict)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(worker=False, rng=0)
+    first = estimator(0, 1, grid, grid)  # submits the search
+    second = estimator(0, 1, grid, grid)  # collects it and tracks from it
+    assert not first.accepted
+    assert second.accepted is starts
+    if not starts:
+        assert "fits too loosely to start tracking (plain fit 0.70, below 0.80)" in second.reason
