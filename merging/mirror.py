@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.grid import UNKNOWN, free_mask, observed_part, occupied_mask
+from merging.grid import UNKNOWN, observed_part
 from merging.params import VerifyParams
 from merging.transforms import apply_transform
 from merging.verify import DEFAULT_VERIFY, PreparedMap, dilate, prepare_map
@@ -304,10 +304,7 @@ def _masks(prepared: PreparedMap, tolerance: int | None, params: VerifyParams) -
     """The agreeing and conflicting cells of a map for walls met within ``tolerance`` cells."""
     if tolerance is None or tolerance == params.near_radius:
         return prepared.near_occupied, prepared.clear_free
-    occupied = occupied_mask(prepared.cells)
-    near = dilate(occupied, tolerance)
-    clear = free_mask(prepared.cells) & ~dilate(occupied, tolerance + params.conflict_clearance)
-    return near, clear
+    return prepared.tolerant_masks(tolerance, params.conflict_clearance)
 
 
 def _net(masks: Masks, rows: NDArray[np.intp], cols: NDArray[np.intp], weight: float) -> float:

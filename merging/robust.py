@@ -21,10 +21,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.grid import free_mask, occupied_mask
 from merging.params import RobustParams, VerifyParams
 from merging.transforms import apply_transform
-from merging.verify import DEFAULT_VERIFY, PreparedMap, dilate
+from merging.verify import DEFAULT_VERIFY, PreparedMap
 
 DEFAULT_ROBUST = RobustParams()
 """The default thresholds of the robust way to vouch for a merge."""
@@ -51,11 +50,7 @@ def tolerant_fit(
         (second.points, first, matrix, second.point_weight),
         (first.points, second, inverse, first.point_weight),
     ):
-        occupied = occupied_mask(target.cells)
-        grown = dilate(occupied, tolerance)
-        far_free = free_mask(target.cells) & ~dilate(
-            occupied, tolerance + params.conflict_clearance
-        )
+        grown, far_free = target.tolerant_masks(tolerance, params.conflict_clearance)
         cols, rows, inside = _cells_of(apply_transform(move, points), target.shape)
         rows, cols = rows[inside], cols[inside]
         on_known = target.cells[rows, cols] >= 0

@@ -14,7 +14,7 @@ The same numbers drive the ranking of hypotheses, the ``confidence`` of a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -66,6 +66,26 @@ class PreparedMap:
     clear_free: NDArray[np.bool_]
     open_points: NDArray[np.float64]
     open_weight: float
+    _tolerant: dict[tuple[int, int], tuple[NDArray[np.bool_], NDArray[np.bool_]]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def tolerant_masks(
+        self, tolerance: int, clearance: int
+    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """Where a wall met within ``tolerance`` cells agrees, and where one conflicts.
+
+        Occupied cells grown by ``tolerance`` (chessboard), and free cells more
+        than ``tolerance + clearance`` cells from any wall; kept for the next
+        caller with the same widths (the verdict asks several times per map).
+        """
+        key = (tolerance, clearance)
+        if key not in self._tolerant:
+            grown = dilate(occupied_mask(self.cells), tolerance)
+            # Square elements compose: growing by t and then by c grows by t + c.
+            far_free = free_mask(self.cells) & ~dilate(grown, clearance)
+            self._tolerant[key] = (grown, far_free)
+        return self._tolerant[key]
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -101,7 +121,7 @@ def prepare_map(cells: NDArray[np.int8], *, params: VerifyParams = DEFAULT_VERIF
     points = all_points[::stride]
     weight = len(all_points) / max(len(points), 1)
     near = dilate(occupied, params.near_radius)
-    blocked = dilate(occupied, params.near_radius + params.conflict_clearance)
+    blocked = dilate(near, params.conflict_clearance)  # grown by near_radius + clearance
     clear_free = free_mask(cells) & ~blocked
     open_points, open_weight = _spread(clear_free, params.max_open_points)
     return PreparedMap(

@@ -11,6 +11,7 @@ from scipy import ndimage
 import merging
 from merging.angular import _bilinear, angular_spectrum, rotation_correlation, rotation_peaks
 from merging.blur import blur_walls
+from merging.grid import free_mask, occupied_mask
 from merging.params import TomographicParams
 from merging.refine import Field, SmoothedMap, _field_sample, _normal_equations, refine_transform
 from merging.tomographic import refine_from
@@ -149,6 +150,19 @@ def test_compiled_bilinear_matches_map_coordinates() -> None:
     rows[:5], cols[:5] = np.arange(5.0), np.arange(5.0)  # on the grid points too
     expected = ndimage.map_coordinates(image, [rows, cols], order=1)
     assert np.array_equal(_bilinear(image, rows, cols), expected)
+
+
+@pytest.mark.parametrize("tolerance, clearance", [(1, 2), (3, 2), (2, 0)])
+def test_tolerant_masks_grow_walls_as_two_dilations_would(
+    building: np.ndarray, tolerance: int, clearance: int
+) -> None:
+    prepared = prepare_map(building)
+    occupied = occupied_mask(building)
+    grown, far_free = prepared.tolerant_masks(tolerance, clearance)
+    assert np.array_equal(grown, dilate(occupied, tolerance))
+    wide = ndimage.binary_dilation(occupied, np.ones((2 * (tolerance + clearance) + 1,) * 2, bool))
+    assert np.array_equal(far_free, free_mask(building) & ~wide)
+    assert prepared.tolerant_masks(tolerance, clearance)[0] is grown  # kept
 
 
 def test_verification_counts_agreement_and_conflict() -> None:
