@@ -88,21 +88,27 @@ def angular_spectrum(
 def _bilinear(
     image: NDArray[np.float32], rows: NDArray[np.float64], cols: NDArray[np.float64]
 ) -> NDArray[np.float32]:
-    """``image`` interpolated bilinearly at ``(rows, cols)``, all inside its last row and column.
+    """``image`` interpolated bilinearly at ``(rows, cols)``, points inside the image.
 
     The value :func:`scipy.ndimage.map_coordinates` gives with ``order=1``
     (the same weights, summed in the same order; tested against it), for the
-    thousands of points of an angular spectrum at a tenth of the cost.
+    thousands of points of an angular spectrum at a tenth of the cost. A
+    point on the last row or column takes its neighbour beyond as itself
+    (its weight there is 0); points outside the image are 0.
     """
-    out = np.empty(rows.shape[0], dtype=np.float32)
+    n_rows, n_cols = image.shape
+    out = np.zeros(rows.shape[0], dtype=np.float32)
     for k in range(rows.shape[0]):
+        if not (0.0 <= rows[k] <= n_rows - 1 and 0.0 <= cols[k] <= n_cols - 1):
+            continue
         row0, col0 = int(np.floor(rows[k])), int(np.floor(cols[k]))
+        row1, col1 = min(row0 + 1, n_rows - 1), min(col0 + 1, n_cols - 1)
         t_row, t_col = rows[k] - row0, cols[k] - col0
         s_row, s_col = 1.0 - t_row, 1.0 - t_col
         value = np.float64(image[row0, col0]) * s_row * s_col
-        value += np.float64(image[row0, col0 + 1]) * s_row * t_col
-        value += np.float64(image[row0 + 1, col0]) * t_row * s_col
-        value += np.float64(image[row0 + 1, col0 + 1]) * t_row * t_col
+        value += np.float64(image[row0, col1]) * s_row * t_col
+        value += np.float64(image[row1, col0]) * t_row * s_col
+        value += np.float64(image[row1, col1]) * t_row * t_col
         out[k] = value
     return out
 

@@ -9,9 +9,11 @@ times less on a 900 x 700 map at widths 0.6-2 cells).
 
 The result is :func:`scipy.ndimage.gaussian_filter`'s on that image with
 its default ``mode="reflect"``: the same normalised kernel, the same
-``truncate`` radius, the rows pass first and rounded to ``float32`` before
-the columns pass, as SciPy does for a ``float32`` image
-(``tests/merging/test_kernels.py`` compares them cell for cell).
+``truncate`` radius, the pass along axis 0 first and rounded to ``float32``
+before the pass along axis 1, as SciPy does for a ``float32`` image. The
+sums are taken in another order, which could in principle round a value
+differently in its last bit; ``tests/merging/test_kernels.py`` compares the
+two cell for cell, on random and real maps, and finds none.
 """
 
 from __future__ import annotations
@@ -53,7 +55,24 @@ def blur_walls(
     Returns
     -------
     (rows, cols) float32 ndarray
+
+    Raises
+    ------
+    ValueError
+        For a ``sigma`` or ``truncate`` that is not positive and finite, or
+        wall cells outside ``shape``.
     """
+    if not (np.isfinite(sigma) and sigma > 0 and np.isfinite(truncate) and truncate > 0):
+        raise ValueError(
+            f"sigma and truncate must be positive and finite, got {sigma} and {truncate}"
+        )
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    if rows.shape != cols.shape or rows.ndim != 1:
+        raise ValueError(f"rows and cols must be 1-D of one length, got {rows.shape}, {cols.shape}")
+    if rows.size and not (
+        rows.min() >= 0 and rows.max() < shape[0] and cols.min() >= 0 and cols.max() < shape[1]
+    ):
+        raise ValueError(f"wall cells must lie inside the shape {shape}")
     kernel = gaussian_kernel(sigma, truncate)
     return _spread(
         np.ascontiguousarray(rows, dtype=np.intp),

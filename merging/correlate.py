@@ -60,7 +60,9 @@ class CoarseMap:
     def target_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
         """``rfft2`` of ``target`` zero-padded to ``size``, kept for the next rotation."""
         if size not in self._spectra:
-            self._spectra[size] = fft.rfft2(self.target, s=size)
+            spectrum = fft.rfft2(self.target, s=size)
+            spectrum.setflags(write=False)  # shared by every rotation
+            self._spectra[size] = spectrum
         return self._spectra[size]
 
 
@@ -96,6 +98,8 @@ def coarsen(
     blurred /= max(float(blurred.max()), 1e-9)
     target = (blurred - params.free_penalty * clear).astype(np.float32)
     points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
+    for image in (target, walls, points):
+        image.setflags(write=False)  # map 1's are shared with a second search
     return CoarseMap(factor, target, walls, points)
 
 

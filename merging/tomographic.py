@@ -131,6 +131,14 @@ class _Maps:
         """``begun``: another search of the same map 1, whose images of it are reused."""
         self.first, self.second, self.params = first, second, params
         if begun is not None:
+            kept = ("translation", "rotation", "gauss_newton")
+            if begun.first is not first or any(
+                getattr(begun.params, name) != getattr(params, name) for name in kept
+            ):
+                raise ValueError(
+                    "a search reuses another's images of map 1 only for the same map 1 "
+                    "and the same translation, rotation and gauss_newton settings"
+                )
             self.smoothed = begun.smoothed
             self.coarse_first = begun.coarse_first
             self.spectra_first = begun.spectra_first

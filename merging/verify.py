@@ -84,6 +84,8 @@ class PreparedMap:
             grown = dilate(occupied_mask(self.cells), tolerance)
             # Square elements compose: growing by t and then by c grows by t + c.
             far_free = free_mask(self.cells) & ~dilate(grown, clearance)
+            for mask in (grown, far_free):
+                mask.setflags(write=False)  # shared by every later caller
             self._tolerant[key] = (grown, far_free)
         return self._tolerant[key]
 

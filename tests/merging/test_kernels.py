@@ -143,11 +143,23 @@ def test_wall_blur_of_a_real_map_matches_scipy(building: np.ndarray) -> None:
         assert np.array_equal(blurred, expected)
 
 
+def test_wall_blur_refuses_what_it_cannot_blur() -> None:
+    rows, cols = np.array([1, 2]), np.array([3, 4])
+    with pytest.raises(ValueError, match="sigma and truncate must be positive"):
+        blur_walls(rows, cols, (5, 5), 0.0)
+    with pytest.raises(ValueError, match="inside the shape"):
+        blur_walls(np.array([-1, 2]), cols, (5, 5), 1.0)
+    with pytest.raises(ValueError, match="inside the shape"):
+        blur_walls(rows, np.array([3, 5]), (5, 5), 1.0)
+    assert not blur_walls(rows[:0], cols[:0], (5, 5), 1.0).any()
+
+
 def test_compiled_bilinear_matches_map_coordinates() -> None:
     rng = np.random.default_rng(4)
     image = rng.random((40, 50)).astype(np.float32)
-    rows, cols = rng.uniform(0, 38.999, 500), rng.uniform(0, 48.999, 500)
+    rows, cols = rng.uniform(0, 39.0, 500), rng.uniform(0, 49.0, 500)
     rows[:5], cols[:5] = np.arange(5.0), np.arange(5.0)  # on the grid points too
+    rows[5:8], cols[5:8] = [39.0, 12.5, 39.0], [7.25, 49.0, 49.0]  # the last row and column
     expected = ndimage.map_coordinates(image, [rows, cols], order=1)
     assert np.array_equal(_bilinear(image, rows, cols), expected)
 

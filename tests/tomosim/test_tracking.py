@@ -182,4 +182,7 @@ def test_a_searched_placement_starts_a_track_only_when_it_fits_closely(
     assert not first.accepted
     assert second.accepted is starts
     if not starts:
-        assert "fits too loosely to start tracking (plain fit 0.70, below 0.80)" in second.reason
+        assert second.reason == (
+            "the search's placement fits too loosely to start tracking (plain fit 0.70, "
+            "below 0.80); no new walls since the last global search"
+        )

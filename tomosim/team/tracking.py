@@ -148,14 +148,10 @@ class TrackingEstimator:
         if lost or self._grown(state, walls):  # 3. a lost track, or new walls: search again
             self._submit(state, grid_1, grid_2, walls)
             why = "searching globally; the result is used at the next round"
-        else:
+        elif loose is None:
             why = "no new walls since the last global search, which was not accepted"
-        if loose is not None:
-            quality = loose.evidence.get("quality", float("nan"))
-            why = (
-                f"the search's placement fits too loosely to start tracking (plain fit "
-                f"{quality:.2f}, below {NEW_TRACK_QUALITY:.2f}); {why}"
-            )
+        else:
+            why = "no new walls since the last global search"
         last = state.last
         if last is None:
             return MergeResult(np.eye(3), 0.0, False, self.method, reason=why)
@@ -163,7 +159,14 @@ class TrackingEstimator:
         matrix = last.matrix  # the search's cells; the maps have grown since: recompute
         if metres is not None:
             matrix = frame_to_cells(metres, grid_1, grid_2)
-        reason = f"{why} ({last.reason or 'lost track'})"
+        if loose is not None:  # the search accepted it; the plain fit did not
+            quality = loose.evidence.get("quality", float("nan"))
+            reason = (
+                f"the search's placement fits too loosely to start tracking (plain fit "
+                f"{quality:.2f}, below {NEW_TRACK_QUALITY:.2f}); {why}"
+            )
+        else:
+            reason = f"{why} ({last.reason or 'lost track'})"
         return replace(last, matrix=matrix, accepted=False, reason=reason)
 
     def _grown(self, state: _PairState, walls: tuple[int, int]) -> bool:
