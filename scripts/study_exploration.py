@@ -5,7 +5,7 @@ exploration over worlds (generated floors and real buildings), team sizes,
 exploration policies, merge methods (``none``: merging off, the lower bound;
 ``tomographic``: the default merger; ``oracle``: merging with the true
 relative start poses, the upper bound any merger can reach) and seeds. Every
-finished episode appends a row to ``<out>/<world>.csv`` at once; rerunning
+finished episode appends a row to ``<out>/episodes_<world>.csv`` at once; rerunning
 the same command skips the episodes already there, so the study can be
 stopped and resumed at will, and ``--report-only`` redraws the outputs from
 what has run.

@@ -10,8 +10,9 @@ targets as ``nearest`` does (``tests/tomosim/test_coordination.py``), so
 
 both with the study's own policy (:attr:`Grid.alone`); and with a
 communication range merging off is left out too (it is the same without
-one). The rows go to ``<folder>/<label>.csv`` (``<label>_comm<range>m.csv``
-with a range) as episodes finish (:func:`tomosim.sweep.run_sweep`),
+one). The rows go to ``<folder>/episodes_<label>.csv``
+(``episodes_<label>_comm<range>m.csv`` with a range: the study's own
+episode rows, not the world's map) as episodes finish (:func:`tomosim.sweep.run_sweep`),
 so a killed study loses at most the episodes running, and the next run skips
 what is done.
 """
@@ -69,9 +70,8 @@ def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
 
 def results_path(folder: Path, world: StudyWorld, comm_range: float | None = None) -> Path:
     """Where a world's rows go (with a communication range, a file of their own)."""
-    return folder / (
-        f"{world.label}.csv" if comm_range is None else f"{world.label}_comm{comm_range:g}m.csv"
-    )
+    suffix = "" if comm_range is None else f"_comm{comm_range:g}m"
+    return folder / f"episodes_{world.label}{suffix}.csv"
 
 
 def run_world(
