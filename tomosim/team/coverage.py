@@ -28,6 +28,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,6 +38,23 @@ from tomosim.frames import pose_matrix
 from tomosim.kernels.coverage import reveal_team
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
+
+
+def _moved(matrix: NDArray[Any], points: NDArray[Any]) -> NDArray[np.float64]:
+    """``(N, 2)`` points moved by a 3x3 homogeneous ``matrix``, one coordinate at a time.
+
+    Not ``points @ matrix[:2, :2].T``: on the hundreds of thousands of cells of a
+    world, that product runs on numpy's BLAS threads, which then spin for about a
+    tenth of a second after every reset, on the core the merge search worker (or a
+    sibling environment) needs.
+    """
+    x, y = points[:, 0], points[:, 1]
+    return np.column_stack(
+        [
+            x * matrix[0, 0] + y * matrix[0, 1] + matrix[0, 2],
+            x * matrix[1, 0] + y * matrix[1, 1] + matrix[1, 2],
+        ]
+    )
 
 
 def _lattice_keys(
@@ -102,7 +120,7 @@ class TeamCoverage:
         self.cell_area = world.resolution**2
         rows, cols = np.nonzero(self.region)
         self.total = len(rows)
-        points = world.truth.cell_to_world(np.column_stack([cols, rows]))
+        points = _moved(world.truth.cell_to_world_matrix(), np.column_stack([cols, rows]))
         robots = len(starts)
         # Per robot, its counted truth cells keyed by lattice cell (reveal_team's arguments).
         self._origins = np.zeros((robots, 2), dtype=np.int64)
@@ -110,8 +128,7 @@ class TeamCoverage:
         self._keys = np.zeros((robots, self.total), dtype=np.int64)
         self._members = np.zeros((robots, self.total), dtype=np.int64)
         for k, start in enumerate(starts):
-            frame = np.linalg.inv(pose_matrix(start))
-            local = points @ frame[:2, :2].T + frame[:2, 2]
+            local = _moved(np.linalg.inv(pose_matrix(start)), points)
             origin, width, keys, members = _lattice_keys(
                 np.floor(local / resolution).astype(np.int64)
             )
