@@ -31,17 +31,19 @@ every wait for the worker: on a machine with no idle core for it, it reads
 low. To compare with another checkout, run this script with
 ``PYTHONPATH=/path/to/that/checkout``.
 
-Measured on this 2-core machine while other work kept its load between 5 and
-7.5 (so the wall-clock rates are low and spread widely), three times 5 runs
-of 300 steps back to back with the version before (medians of the ``cpu``
-column): 3 robots 5183, 4494 and 5543 robot-steps/s against 2608, 2261 and
-3022 before; 8 robots 3734, 2992 and 4294 against 1966, 1736 and 2524. On an
-idle machine the wall clock is bounded by the merge searches as much as by
-the step (README, "The environment: robot-steps per second").
+Each timed run waits until the search worker is ready (it warms up for about
+a second after it starts), as it waits for compiled code with its untimed
+warm-up steps: a learner's millions of steps see the worker ready.
+
+Measured on this 2-core machine with nothing else running, four times 9 runs
+of 300 steps (medians of the wall clock): 3 robots 6673, 6532, 6578 and 6114
+robot-steps/s, 8 robots 4154, 4298, 4176 and 4113; the version before, timed
+with this script between the last two, 5432 and 5209 with 3 robots (README,
+"The environment: robot-steps per second").
 
 Usage::
 
-    python scripts/bench_env.py [--robots 3 8] [--steps 300] [--repeats 5]
+    python scripts/bench_env.py [--robots 3 8] [--steps 300] [--repeats 9]
     python scripts/bench_env.py --vector 1 2 --steps 200 --repeats 3
     python scripts/bench_env.py --profile 600   # cProfile of one run, top functions
 """
@@ -67,6 +69,8 @@ except ImportError:  # a checkout from before the search worker, timed with PYTH
 
 WARMUP_STEPS = 20
 """Untimed steps before each timed run (first-call and compilation costs)."""
+WORKER_READY_SECONDS = 60.0
+"""How long a run waits for the search worker to warm up before its timed steps."""
 ACTION_SEED_OFFSET = 1000
 """Offset between a run's reset seed and the seed of its action sampler."""
 
@@ -80,6 +84,21 @@ def searches_here() -> float:
     """CPU seconds this process has spent on merge searches it took back from the worker
     (0 for a checkout whose environment never does that, timed with ``PYTHONPATH``)."""
     return float(getattr(WorkerSearches, "cpu_seconds_here", 0.0))
+
+
+def wait_for_worker() -> None:
+    """Wait until the search worker is warmed up (a second or so after it starts).
+
+    Until then an environment runs its searches itself; a learner's millions of
+    steps see the worker ready, so the timed steps should too. (No-op for a
+    checkout without the worker, or one whose worker cannot say so.)
+    """
+    wait_ready = getattr(WorkerSearches, "wait_ready", None)
+    if wait_ready is not None and not wait_ready(WORKER_READY_SECONDS):
+        raise RuntimeError(
+            f"the merge search worker was not ready within {WORKER_READY_SECONDS} s; "
+            "check that `python -m tomosim.search_worker` starts in this environment"
+        )
 
 
 def run_steps(
@@ -112,6 +131,7 @@ def bench_single(
     for repeat in range(repeats):
         env = exploration.parallel_env(robots=robots, **kwargs)
         env.reset(seed=repeat)
+        wait_for_worker()
         generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
         run_steps(env, WARMUP_STEPS, generator, repeat)
         seconds, cpu_seconds, search_seconds = run_steps(env, steps, generator, repeat)
@@ -191,6 +211,7 @@ def profile(steps: int, top: int) -> None:
     """Print the ``top`` functions by cumulative time of one default run of ``steps`` steps."""
     env = exploration.parallel_env()
     env.reset(seed=0)
+    wait_for_worker()
     generator = np.random.default_rng(ACTION_SEED_OFFSET)
     run_steps(env, WARMUP_STEPS, generator, 0)
     profiler = cProfile.Profile()
@@ -204,7 +225,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, nargs="+", default=[3, 8])
     parser.add_argument("--steps", type=int, default=300, help="timed joint steps per run")
-    parser.add_argument("--repeats", type=int, default=5, help="runs per configuration")
+    parser.add_argument("--repeats", type=int, default=9, help="runs per configuration")
     parser.add_argument(
         "--vector",
         type=int,

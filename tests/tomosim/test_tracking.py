@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -90,6 +92,25 @@ def test_searches_are_collected_later_with_their_results() -> None:
     failing = WorkerSearches().submit(grid, grid, method="no such method", seed=1)
     with pytest.raises(ValueError, match="unknown merging method"):
         failing.result(timeout=120)
+
+
+def test_the_worker_says_when_it_is_ready_and_then_runs_the_searches() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    with pytest.raises(ValueError, match="timeout"):
+        WorkerSearches.wait_ready(-1.0)
+    assert WorkerSearches.wait_ready(60.0)
+    job = WorkerSearches().submit(grid, grid, method="tomographic", seed=3)
+    expected = InlineSearches().submit(grid, grid, method="tomographic", seed=3).result()
+    # A ready, idle worker is sent the job at once: it is no longer there to take back.
+    deadline = time.monotonic() + 60.0
+    while WorkerSearches.worker().queued and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert WorkerSearches.worker().take(job) is None
+    np.testing.assert_array_equal(job.result(timeout=60.0).matrix, expected.matrix)
 
 
 def test_a_waiting_caller_runs_the_searches_the_worker_has_not_started() -> None:

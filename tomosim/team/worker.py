@@ -165,6 +165,12 @@ class _Worker:
             if not future.done():
                 future.set_exception(self.ended)
 
+    def wait_ready(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` seconds for the worker to be warmed up; whether it is."""
+        with self.lock:
+            self.lock.wait_for(lambda: self.ready or self.ended is not None, timeout)
+            return self.ready and self.ended is None
+
     def take(self, future: Future[MergeResult]) -> tuple[Any, ...] | None:
         """Take back a job the worker has not been sent; None if it has (or was taken)."""
         if not isinstance(future, _Job):
@@ -241,6 +247,19 @@ class WorkerSearches:
         if cls._worker is None or cls._worker.pid != os.getpid():
             cls._worker = _Worker()
         return cls._worker
+
+    @classmethod
+    def wait_ready(cls, timeout: float = 30.0) -> bool:
+        """Wait up to ``timeout`` seconds for the worker to be warmed up; whether it is.
+
+        Sessions never need to: until it is ready they run their searches
+        themselves. A benchmark of the steady state waits, as it waits for
+        compiled kernels to load, so that the worker's start (about a second)
+        is not timed as simulation.
+        """
+        if timeout < 0:
+            raise ValueError(f"timeout must be at least 0 seconds, got {timeout}")
+        return cls.worker().wait_ready(timeout)
 
     def submit(
         self, first: OccupancyGrid, second: OccupancyGrid, *, method: str, seed: int
