@@ -14,9 +14,9 @@ Three tables:
    configuration is run ``--repeats`` times from a fresh ``reset(seed=r)``
    for ``--steps`` timed steps (episodes that end are reset and continue);
 2. ``K`` environments stepped in lock step by SuperSuit's vector env over
-   ``K`` processes (``--vector 1 2``; needs the ``rl`` extra), total
-   robot-steps per second;
-3. the same through Gymnasium's ``AsyncVectorEnv`` of the centralised view.
+   ``K`` processes, and all in this process (``--vector 1 2``; needs the
+   ``rl`` extra), total robot-steps per second;
+3. ``K`` centralised views in Gymnasium's ``AsyncVectorEnv`` (``K`` processes).
 
 The tables give the median and the spread (min..max) over the repeats, of
 rates by the wall clock and, for one environment, by CPU time (``cpu``
@@ -71,6 +71,9 @@ WARMUP_STEPS = 20
 """Untimed steps before each timed run (first-call and compilation costs)."""
 WORKER_READY_SECONDS = 60.0
 """How long a run waits for the search worker to warm up before its timed steps."""
+VECTOR_WARMUP_SECONDS = 2.0
+"""Untimed stepping of a vector env before its timed steps (its processes' search
+workers warm up meanwhile)."""
 ACTION_SEED_OFFSET = 1000
 """Offset between a run's reset seed and the seed of its action sampler."""
 
@@ -150,17 +153,35 @@ def advance_vector(venv: Any, steps: int, actions: Callable[[], Any]) -> float:
     return time.perf_counter() - start
 
 
-def bench_supersuit(envs: int, robots: int, steps: int, repeats: int) -> list[float]:
-    """Robot-steps per second of ``envs`` environments in ``envs`` processes (SuperSuit)."""
+def warm_up_vector(venv: Any, actions: Callable[[], Any]) -> None:
+    """Untimed steps: at least ``WARMUP_STEPS``, and for ``VECTOR_WARMUP_SECONDS``.
+
+    Environments in worker processes each start their own search worker, which
+    this process cannot wait for; stepping a couple of seconds covers its warm-up
+    (about a second), as :func:`wait_for_worker` does for one environment.
+    """
+    start = time.perf_counter()
+    advance_vector(venv, WARMUP_STEPS, actions)
+    while time.perf_counter() - start < VECTOR_WARMUP_SECONDS:
+        advance_vector(venv, WARMUP_STEPS, actions)
+
+
+def bench_supersuit(
+    envs: int, robots: int, steps: int, repeats: int, *, processes: int
+) -> list[float]:
+    """Robot-steps per second of ``envs`` environments stepped by SuperSuit's vector env,
+    in ``processes`` worker processes (0: all in this process, sharing its search worker)."""
     from envs.vector import make_supersuit_vector_env
 
     rates = []
     for repeat in range(repeats):
-        venv = make_supersuit_vector_env(envs, processes=envs, robots=robots)
+        venv = make_supersuit_vector_env(envs, processes=processes, robots=robots)
         venv.reset(seed=repeat)
+        if processes == 0:
+            wait_for_worker()
         generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
         count = venv.num_envs  # agents over all environments
-        advance_vector(venv, WARMUP_STEPS, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
+        warm_up_vector(venv, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
         seconds = advance_vector(venv, steps, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
         rates.append(count * steps / seconds)
         venv.close()
@@ -176,7 +197,7 @@ def bench_gymnasium(envs: int, robots: int, steps: int, repeats: int) -> list[fl
         venv = make_gymnasium_vector_env(envs, robots=robots)
         venv.reset(seed=repeat)
         venv.action_space.seed(ACTION_SEED_OFFSET + repeat)
-        advance_vector(venv, WARMUP_STEPS, venv.action_space.sample)
+        warm_up_vector(venv, venv.action_space.sample)
         seconds = advance_vector(venv, steps, venv.action_space.sample)
         rates.append(envs * robots * steps / seconds)
         venv.close()
@@ -248,10 +269,11 @@ def main() -> None:
             rates = bench_single(robots, args.steps, args.repeats, merge=False)
             print(row(f"{robots} robots, no merging", *rates), flush=True)
     if args.vector:
-        print(header("K environments in K processes, SuperSuit vector env (3 robots each)"))
+        print(header("K environments, SuperSuit vector env (3 robots each)"))
         for count in args.vector:
-            rates = bench_supersuit(count, 3, args.steps, args.repeats)
-            print(row(f"K = {count}", rates), flush=True)
+            for processes, where in ((count, f"{count} processes"), (0, "this process")):
+                rates = bench_supersuit(count, 3, args.steps, args.repeats, processes=processes)
+                print(row(f"K = {count}, {where}", rates), flush=True)
         print(header("K centralised views, Gymnasium AsyncVectorEnv (3 robots each)"))
         for count in args.vector:
             rates = bench_gymnasium(count, 3, args.steps, args.repeats)
