@@ -35,11 +35,12 @@ Each timed run waits until the search worker is ready (it warms up for about
 a second after it starts), as it waits for compiled code with its untimed
 warm-up steps: a learner's millions of steps see the worker ready.
 
-Measured on this 2-core machine with nothing else running, four times 9 runs
-of 300 steps (medians of the wall clock): 3 robots 6673, 6532, 6578 and 6114
-robot-steps/s, 8 robots 4154, 4298, 4176 and 4113; the version before, timed
-with this script between the last two, 5432 and 5209 with 3 robots (README,
-"The environment: robot-steps per second").
+Measured on this 2-core machine with nothing else running, 11 times over an
+hour (medians of 9 runs of 300 steps, wall clock): 3 robots 3753 to 6673
+robot-steps/s (median 5676), 8 robots 2473 to 4298 (median 3563), following
+the host's speed, which the ``cpu`` column shows falling alike; against the
+version before, run by run, 1.11 times as fast with 3 robots (geometric
+mean of six pairs; README, "The environment: robot-steps per second").
 
 Usage::
 
@@ -93,11 +94,20 @@ def wait_for_worker() -> None:
     """Wait until the search worker is warmed up (a second or so after it starts).
 
     Until then an environment runs its searches itself; a learner's millions of
-    steps see the worker ready, so the timed steps should too. (No-op for a
-    checkout without the worker, or one whose worker cannot say so.)
+    steps see the worker ready, so the timed steps should too. For an older
+    checkout timed with ``PYTHONPATH``, whose searches have no ``wait_ready``,
+    this polls its worker's flag; a checkout without a worker is not waited for.
     """
+    if WorkerSearches is None:
+        return
     wait_ready = getattr(WorkerSearches, "wait_ready", None)
-    if wait_ready is not None and not wait_ready(WORKER_READY_SECONDS):
+    if wait_ready is None:
+        worker = WorkerSearches.worker()
+        deadline = time.monotonic() + WORKER_READY_SECONDS
+        while not getattr(worker, "ready", True) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return
+    if not wait_ready(WORKER_READY_SECONDS):
         raise RuntimeError(
             f"the merge search worker was not ready within {WORKER_READY_SECONDS} s; "
             "check that `python -m tomosim.search_worker` starts in this environment"
