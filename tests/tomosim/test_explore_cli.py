@@ -365,3 +365,38 @@ def test_review_marks_a_killed_run_unfinished_and_reads_it(
     assert "tomosim: warning:" in err and "killed.rrd" in err
     steps = int(out.split("\nsteps")[1].split()[0])
     assert steps > 0
+
+
+def test_a_signal_inside_a_compiled_call_stops_explore_cleanly(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A signal handler's exception raised while a numba function hands back its result
+    # reaches Python as a SystemError caused by it; the run must stop as on any step.
+    from tomosim.commands.stopping import Stopped
+    from tomosim.team.session import TeamSession
+
+    step = TeamSession.step
+    calls = []
+
+    def step_then_signal(self: TeamSession, commands: object) -> object:
+        calls.append(1)
+        if len(calls) == 5:
+            try:
+                raise Stopped(signal.SIGTERM)
+            except Stopped as interrupt:
+                raise SystemError("returned a result with an exception set") from interrupt
+        return step(self, commands)
+
+    monkeypatch.setattr(TeamSession, "step", step_then_signal)
+    record = tmp_path / "signalled.rrd"
+    status, out, err = run(["explore", *SHORT_RUN, "--record", str(record)], capsys)
+    assert status == 128 + signal.SIGTERM and out == ""
+    assert "terminated (SIGTERM)" in err and f"tomosim review {record}" in err
+    verify(record)
+
+
+def test_other_system_errors_are_not_taken_for_signals() -> None:
+    from tomosim.commands.stopping import interrupts_unwrapped
+
+    with pytest.raises(SystemError, match="not a signal"), interrupts_unwrapped():
+        raise SystemError("not a signal")

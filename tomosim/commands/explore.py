@@ -32,7 +32,7 @@ from merging.api import DEFAULT_METHOD
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore_report import render_summary
 from tomosim.commands.progress import Progress
-from tomosim.commands.stopping import Stopped
+from tomosim.commands.stopping import Stopped, interrupts_unwrapped
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
 from tomosim.recording import LiveViewer, Recorder, RecordingError
@@ -237,7 +237,8 @@ def run(args: argparse.Namespace) -> int:
         progress.update(step, f"team coverage {coverage:.3f}")
 
     try:
-        metrics = run_episode(config, recorder=recorder, progress=report)
+        with interrupts_unwrapped():
+            metrics = run_episode(config, recorder=recorder, progress=report)
     except KeyboardInterrupt as exc:
         progress.close()
         stopped = Stopped.of(exc, kept(config.record, progress.done))

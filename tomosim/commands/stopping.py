@@ -9,6 +9,8 @@ to go on) and raises it again; :func:`tomosim.cli.main` prints it in one line.
 from __future__ import annotations
 
 import signal
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 SIGNAL_NAMES: dict[int, str] = {
     signal.SIGINT: "interrupted (Ctrl-C)",
@@ -40,3 +42,22 @@ class Stopped(KeyboardInterrupt):
         """One line: what stopped the run, then the detail."""
         told = SIGNAL_NAMES.get(self.signum, f"stopped by {self.why}")
         return f"{told}; {self.detail}" if self.detail else told
+
+
+@contextmanager
+def interrupts_unwrapped() -> Iterator[None]:
+    """Let a Ctrl-C or SIGTERM that arrived inside a compiled call surface as itself.
+
+    The signal's ``KeyboardInterrupt`` is raised by its Python handler, which
+    may run while a compiled (numba) function hands back its result; the
+    dispatcher then reports a ``SystemError`` ("returned a result with an
+    exception set") caused by the interrupt. Inside this context the interrupt
+    is raised again in its place, so that the run stops as on any other step.
+    """
+    try:
+        yield
+    except SystemError as error:
+        interrupt = error.__cause__ or error.__context__
+        if isinstance(interrupt, KeyboardInterrupt):
+            raise interrupt from None
+        raise

@@ -23,7 +23,7 @@ from typing import Any
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore import MAX_ROBOTS
 from tomosim.commands.progress import Progress
-from tomosim.commands.stopping import Stopped
+from tomosim.commands.stopping import Stopped, interrupts_unwrapped
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, run_sweep
 from tomosim.team import team_methods
@@ -177,10 +177,12 @@ def run(args: argparse.Namespace) -> int:
         progress.update(progress.done + 1, detail())
 
     try:
-        outcome = run_sweep(
-            plan, args.out, executor=args.executor, workers=args.workers, resume=args.resume,
-            ray_address=args.ray_address, progress=finished, on_start=start, on_step=step,
-        )  # fmt: skip
+        with interrupts_unwrapped():
+            outcome = run_sweep(
+                plan, args.out, executor=args.executor, workers=args.workers,
+                resume=args.resume, ray_address=args.ray_address, progress=finished,
+                on_start=start, on_step=step,
+            )  # fmt: skip
     except KeyboardInterrupt as exc:
         progress.close()
         try:
