@@ -165,6 +165,7 @@ from envs.observations import (
 from envs.rendering import HumanWindow, render_frame
 from merging.api import DEFAULT_METHOD
 from tomosim.episode import load_world
+from tomosim.kernels.jit import interrupt_behind
 from tomosim.simulation import SimulationConfig
 from tomosim.team import TeamConfig, TeamSession, robot_name
 from tomosim.worlds import World
@@ -344,8 +345,14 @@ class MultiRobotExplorationEnv(ParallelEnv):
             (0.0, 0.0) if actions.get(agent) is None else command(actions[agent], name=agent)
             for agent in self.possible_agents
         ]
-        merge = session.step(commands)
-        observations = self._observations()
+        try:
+            merge = session.step(commands)
+            observations = self._observations()
+        except SystemError as error:  # a Ctrl-C inside a compiled kernel, or a real error
+            interrupt = interrupt_behind(error)
+            if interrupt is None:
+                raise
+            raise interrupt from None
         rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
         done = session.coverage.fraction >= self.coverage_target
         cut = session.steps >= self.max_cycles

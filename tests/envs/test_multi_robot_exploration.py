@@ -177,3 +177,26 @@ def test_bad_arguments_are_rejected() -> None:
     env.reset(seed=0)
     with pytest.raises(ValueError, match="robot_0"):
         env.step({"robot_0": np.array([np.nan, 0.0])})
+
+
+@pytest.mark.parametrize("interrupted", [True, False])
+def test_ctrl_c_inside_a_compiled_kernel_reaches_the_learner_as_itself(
+    monkeypatch: pytest.MonkeyPatch, interrupted: bool
+) -> None:
+    # A signal handler's KeyboardInterrupt that runs while a numba kernel hands back its
+    # result comes out of the dispatcher as a SystemError caused by it; a training script's
+    # `except KeyboardInterrupt` must still see it. Other SystemErrors pass unchanged.
+    from tomosim.team import TeamSession
+
+    def step(self: TeamSession, commands: object) -> None:
+        try:
+            raise KeyboardInterrupt if interrupted else ValueError("a bug")
+        except BaseException as cause:
+            raise SystemError("returned a result with an exception set") from cause
+
+    env = exploration.parallel_env(robots=2, merge=False)
+    env.reset(seed=0)
+    monkeypatch.setattr(TeamSession, "step", step)
+    actions = {agent: np.zeros(2, np.float32) for agent in env.agents}
+    with pytest.raises(KeyboardInterrupt if interrupted else SystemError):
+        env.step(actions)

@@ -12,6 +12,8 @@ import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from tomosim.kernels.jit import interrupt_behind
+
 SIGNAL_NAMES: dict[int, str] = {
     signal.SIGINT: "interrupted (Ctrl-C)",
     signal.SIGTERM: "terminated (SIGTERM)",
@@ -48,16 +50,14 @@ class Stopped(KeyboardInterrupt):
 def interrupts_unwrapped() -> Iterator[None]:
     """Let a Ctrl-C or SIGTERM that arrived inside a compiled call surface as itself.
 
-    The signal's ``KeyboardInterrupt`` is raised by its Python handler, which
-    may run while a compiled (numba) function hands back its result; the
-    dispatcher then reports a ``SystemError`` ("returned a result with an
-    exception set") caused by the interrupt. Inside this context the interrupt
-    is raised again in its place, so that the run stops as on any other step.
+    Inside this context a ``SystemError`` standing for an interrupt
+    (:func:`tomosim.kernels.jit.interrupt_behind`) is replaced by the
+    interrupt, so that the run stops as on any other step.
     """
     try:
         yield
     except SystemError as error:
-        interrupt = error.__cause__ or error.__context__
-        if isinstance(interrupt, KeyboardInterrupt):
-            raise interrupt from None
-        raise
+        interrupt = interrupt_behind(error)
+        if interrupt is None:
+            raise
+        raise interrupt from None

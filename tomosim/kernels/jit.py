@@ -22,3 +22,15 @@ def kernel(function: F) -> F:
     """Compile ``function`` with the project's numba options (module docstring)."""
     compiled = numba.njit(cache=True, error_model="numpy", nogil=True)(function)
     return cast(F, compiled)  # a Dispatcher is called like the function it compiles
+
+
+def interrupt_behind(error: SystemError) -> KeyboardInterrupt | None:
+    """The Ctrl-C or SIGTERM that ``error`` stands for, if it stands for one.
+
+    A signal's ``KeyboardInterrupt`` is raised by its Python handler, which may
+    run while a kernel hands back its result; numba's dispatcher then reports a
+    ``SystemError`` ("returned a result with an exception set") caused by the
+    interrupt. Callers that stop cleanly on an interrupt raise this one instead.
+    """
+    cause = error.__cause__ or error.__context__
+    return cause if isinstance(cause, KeyboardInterrupt) else None
