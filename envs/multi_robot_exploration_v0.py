@@ -165,7 +165,7 @@ from envs.observations import (
 from envs.rendering import HumanWindow, render_frame
 from merging.api import DEFAULT_METHOD
 from tomosim.episode import load_world
-from tomosim.kernels.jit import interrupt_behind
+from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.simulation import SimulationConfig
 from tomosim.team import TeamConfig, TeamSession, robot_name
 from tomosim.worlds import World
@@ -313,13 +313,14 @@ class MultiRobotExplorationEnv(ParallelEnv):
             floor = int(self.floors[int(generator.integers(len(self.floors)))])
             self.world = load_world(floor, size=self.world_size)
         self._returns = np.zeros(len(self.possible_agents))
-        self.session = TeamSession(
-            self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
-        )
-        self.agents = list(self.possible_agents)
-        if self.window is not None:
-            self.render()
-        return self._observations(), self._infos(merged_now=False)
+        with interrupts_unwrapped():  # as in step()
+            self.session = TeamSession(
+                self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
+            )
+            self.agents = list(self.possible_agents)
+            if self.window is not None:
+                self.render()
+            return self._observations(), self._infos(merged_now=False)
 
     def step(
         self, actions: dict[str, Any]
@@ -345,14 +346,9 @@ class MultiRobotExplorationEnv(ParallelEnv):
             (0.0, 0.0) if actions.get(agent) is None else command(actions[agent], name=agent)
             for agent in self.possible_agents
         ]
-        try:
+        with interrupts_unwrapped():  # a Ctrl-C inside a kernel reaches the caller as one
             merge = session.step(commands)
             observations = self._observations()
-        except SystemError as error:  # a Ctrl-C inside a compiled kernel, or a real error
-            interrupt = interrupt_behind(error)
-            if interrupt is None:
-                raise
-            raise interrupt from None
         rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
         done = session.coverage.fraction >= self.coverage_target
         cut = session.steps >= self.max_cycles

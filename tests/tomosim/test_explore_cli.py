@@ -396,7 +396,7 @@ def test_a_signal_inside_a_compiled_call_stops_explore_cleanly(
 
 
 def test_other_system_errors_are_not_taken_for_signals() -> None:
-    from tomosim.commands.stopping import interrupts_unwrapped
+    from tomosim.kernels.jit import interrupts_unwrapped
 
     with pytest.raises(SystemError, match="not a signal"), interrupts_unwrapped():
         raise SystemError("not a signal")

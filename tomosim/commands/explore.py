@@ -32,9 +32,10 @@ from merging.api import DEFAULT_METHOD
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore_report import render_summary
 from tomosim.commands.progress import Progress
-from tomosim.commands.stopping import Stopped, interrupts_unwrapped
+from tomosim.commands.stopping import Stopped
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
+from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.recording import LiveViewer, Recorder, RecordingError
 from tomosim.recording.sinks import DEFAULT_VIEWER_URL, DEFAULT_WEB_PORT
 from tomosim.team import ORACLE, check_team_method, team_methods

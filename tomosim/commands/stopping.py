@@ -9,10 +9,6 @@ to go on) and raises it again; :func:`tomosim.cli.main` prints it in one line.
 from __future__ import annotations
 
 import signal
-from collections.abc import Iterator
-from contextlib import contextmanager
-
-from tomosim.kernels.jit import interrupt_behind
 
 SIGNAL_NAMES: dict[int, str] = {
     signal.SIGINT: "interrupted (Ctrl-C)",
@@ -44,20 +40,3 @@ class Stopped(KeyboardInterrupt):
         """One line: what stopped the run, then the detail."""
         told = SIGNAL_NAMES.get(self.signum, f"stopped by {self.why}")
         return f"{told}; {self.detail}" if self.detail else told
-
-
-@contextmanager
-def interrupts_unwrapped() -> Iterator[None]:
-    """Let a Ctrl-C or SIGTERM that arrived inside a compiled call surface as itself.
-
-    Inside this context a ``SystemError`` standing for an interrupt
-    (:func:`tomosim.kernels.jit.interrupt_behind`) is replaced by the
-    interrupt, so that the run stops as on any other step.
-    """
-    try:
-        yield
-    except SystemError as error:
-        interrupt = interrupt_behind(error)
-        if interrupt is None:
-            raise
-        raise interrupt from None

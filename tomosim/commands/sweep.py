@@ -23,8 +23,9 @@ from typing import Any
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore import MAX_ROBOTS
 from tomosim.commands.progress import Progress
-from tomosim.commands.stopping import Stopped, interrupts_unwrapped
+from tomosim.commands.stopping import Stopped
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
+from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, run_sweep
 from tomosim.team import team_methods
 

@@ -1,4 +1,4 @@
-"""The one decorator every compiled kernel uses.
+"""The one decorator every compiled kernel uses, and a Ctrl-C caught inside one.
 
 ``cache=True`` keeps the machine code beside the module (``__pycache__``), so
 only the first process after an install pays the compilation (a few seconds
@@ -6,11 +6,16 @@ for all kernels). ``error_model="numpy"`` makes a division by zero give
 ``inf``/``nan`` as numpy does instead of raising, which the ray caster relies
 on for beams parallel to a wall. No ``fastmath``: the kernels must give the
 same numbers as their numpy oracles, run after run.
+
+A signal's ``KeyboardInterrupt`` that lands while a kernel hands back its result
+comes out of numba's dispatcher as a ``SystemError``; :func:`interrupt_behind`
+and :func:`interrupts_unwrapped` turn it back into the interrupt.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any, TypeVar, cast
 
 import numba
@@ -34,3 +39,20 @@ def interrupt_behind(error: SystemError) -> KeyboardInterrupt | None:
     """
     cause = error.__cause__ or error.__context__
     return cause if isinstance(cause, KeyboardInterrupt) else None
+
+
+@contextmanager
+def interrupts_unwrapped() -> Iterator[None]:
+    """Let a Ctrl-C or SIGTERM that arrived inside a compiled call surface as itself.
+
+    Inside this context a ``SystemError`` standing for an interrupt
+    (:func:`interrupt_behind`) is replaced by the interrupt, so that callers
+    stop on it as on any other; every other error passes unchanged.
+    """
+    try:
+        yield
+    except SystemError as error:
+        interrupt = interrupt_behind(error)
+        if interrupt is None:
+            raise
+        raise interrupt from None
