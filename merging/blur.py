@@ -74,7 +74,7 @@ def blur_walls(
     ):
         raise ValueError(f"wall cells must lie inside the shape {shape}")
     kernel = gaussian_kernel(sigma, truncate)
-    return _spread(
+    return blur_sparse(
         np.ascontiguousarray(rows, dtype=np.intp),
         np.ascontiguousarray(cols, dtype=np.intp),
         int(shape[0]),
@@ -94,13 +94,15 @@ def _reflect(index: int, size: int) -> int:
 
 
 @numba.njit(cache=True, nogil=True)
-def _spread(
+def blur_sparse(
     rows: NDArray[np.intp],
     cols: NDArray[np.intp],
     n_rows: int,
     n_cols: int,
     kernel: NDArray[np.float64],
 ) -> NDArray[np.float32]:
+    """:func:`blur_walls` of cells known to lie inside ``(n_rows, n_cols)``, with the 1-D
+    ``kernel`` of :func:`gaussian_kernel` (compiled, for callers that are themselves)."""
     radius = (kernel.shape[0] - 1) // 2
     # 1: a wall cell seen; 2: a cell of the first pass carried along its row.
     state = np.zeros((n_rows, n_cols), dtype=np.uint8)

@@ -19,13 +19,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.blur import blur_walls
+from merging.blur import gaussian_kernel
 from merging.params import FROM_START, GaussNewtonParams
-from merging.transforms import apply_transform, rotation_about
+from merging.refine_kernels import field_sums, gauss_newton, sample_field, wall_field
+from merging.transforms import apply_transform
 from merging.verify import PreparedMap
 
 DEFAULT_GAUSS_NEWTON = GaussNewtonParams()
@@ -105,22 +105,14 @@ class SmoothedMap:
         scale = field_scale(sigma, self._downsample_from)
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
-        walls = self._walls
-        if box is not None:
-            inside = (
-                (walls[:, 0] >= x_lo)
-                & (walls[:, 0] < x_hi)
-                & (walls[:, 1] >= y_lo)
-                & (walls[:, 1] < y_hi)
-            )
-            walls = walls[inside]
-        cells = ((walls - np.array([x_lo, y_lo])) // scale).astype(np.intp)
         width = sigma / scale
         # Scaled so that the centre of a one-cell wall is about 1.
-        smooth = blur_walls(cells[:, 1], cells[:, 0], (max(rows, 1), max(cols, 1)), width,
-                            truncate=3.0)  # fmt: skip
-        smooth *= np.float32(np.sqrt(2 * np.pi) * width)
-        field = Field(np.pad(np.minimum(smooth, 1.0), 1), scale, (x_lo, y_lo), sigma)
+        gain = float(np.float32(np.sqrt(2 * np.pi) * width))
+        corners = (int(x_lo), int(y_lo), int(x_hi), int(y_hi))
+        kernel = gaussian_kernel(width, 3.0)
+        image = wall_field(self._walls, corners, box is not None, scale,
+                           (max(rows, 1), max(cols, 1)), kernel, gain)  # fmt: skip
+        field = Field(image, scale, (x_lo, y_lo), sigma)
         if box is None:
             self._fields[sigma] = field
         return field
@@ -139,65 +131,12 @@ def field_scale(sigma: float, downsample_from: float) -> float:
     return float(max(2.0, 2.0 ** np.floor(np.log2(sigma))))
 
 
-@numba.njit(cache=True, nogil=True)
-def _sample(
-    image: NDArray[np.float32],
-    matrix: NDArray[np.float64],
-    points: NDArray[np.float64],
-    corner_x: float,
-    corner_y: float,
-    scale: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Move ``points`` (map 2 cells) by ``matrix`` and sample the field ``image`` there.
-
-    Returns, for the points that land inside the image (its last row and
-    column excluded, so that every bilinear neighbour exists): where they
-    land in map 1's cells ``(K, 2)``, and the field's bilinear value and
-    gradient along x and y in image pixels at each. The compiled form of
-    :func:`merging.transforms.apply_transform`, :meth:`Field.locate` and a
-    bilinear lookup, which the refinement repeats hundreds of times a search.
-    """
-    count = points.shape[0]
-    rows, cols = image.shape
-    landed = np.empty((count, 2))
-    value = np.empty(count)
-    grad_x = np.empty(count)
-    grad_y = np.empty(count)
-    a, b, c = matrix[0, 0], matrix[0, 1], matrix[0, 2]
-    d, e, f = matrix[1, 0], matrix[1, 1], matrix[1, 2]
-    offset = 0.5 / scale + 0.5
-    kept = 0
-    for i in range(count):
-        px, py = points[i, 0], points[i, 1]
-        cell_x = px * a + py * b + c
-        cell_y = px * d + py * e + f
-        x = (cell_x - corner_x) / scale + offset
-        y = (cell_y - corner_y) / scale + offset
-        if not (x >= 0.0 and x < cols - 1 and y >= 0.0 and y < rows - 1):
-            continue
-        x0 = int(np.floor(x))
-        y0 = int(np.floor(y))
-        fx, fy = x - x0, y - y0
-        v00 = np.float64(image[y0, x0])
-        v01 = np.float64(image[y0, x0 + 1])
-        v10 = np.float64(image[y0 + 1, x0])
-        v11 = np.float64(image[y0 + 1, x0 + 1])
-        top = v00 * (1.0 - fx) + v01 * fx
-        bottom = v10 * (1.0 - fx) + v11 * fx
-        landed[kept, 0] = cell_x
-        landed[kept, 1] = cell_y
-        value[kept] = top * (1.0 - fy) + bottom * fy
-        grad_x[kept] = (v01 - v00) * (1.0 - fy) + (v11 - v10) * fy
-        grad_y[kept] = bottom - top
-        kept += 1
-    return landed[:kept], value[:kept], grad_x[:kept], grad_y[:kept]
-
-
 def _field_sample(
     field: Field, matrix: NDArray[np.float64], points: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`_sample` of ``field`` at ``points`` moved by ``matrix``."""
-    return _sample(
+    """:func:`~merging.refine_kernels.sample_field` of ``field`` at ``points`` moved by
+    ``matrix``."""
+    return sample_field(
         field.image,
         np.ascontiguousarray(matrix, dtype=np.float64),
         np.ascontiguousarray(points, dtype=np.float64),
@@ -205,12 +144,6 @@ def _field_sample(
         float(field.corner[1]),
         float(field.scale),
     )
-
-
-def _objective(field: Field, matrix: NDArray[np.float64], points: NDArray[np.float64]) -> float:
-    """``Σ M`` over ``points`` moved by ``matrix`` (those landing off the field add 0)."""
-    _, value, _, _ = _field_sample(field, matrix, points)
-    return float(value.sum())
 
 
 def refine_transform(
@@ -290,92 +223,27 @@ def _gauss_newton(
     iterations: int,
     params: GaussNewtonParams,
 ) -> NDArray[np.float64]:
-    """Newton-length Gauss-Newton steps on one field; each evaluation also checks the last step.
+    """Newton-length Gauss-Newton steps on one field (:func:`merging.refine_kernels.gauss_newton`).
 
     A step that lowers ``Σ M`` is taken back and halved (at most
     ``params.backtracks`` times in a row); the best transform seen is returned.
     """
-    scale = field.scale
-    best, best_total = start, -np.inf
-    current = start
-    step = np.zeros(3)
-    pivot = np.zeros(2)
-    halvings = 0
-    for _ in range(iterations + params.backtracks):
-        landed, value, gx, gy = _field_sample(field, current, points)
-        if len(value) < 3:
-            break
-        total = float(value.sum())
-        if total <= best_total:
-            if halvings == params.backtracks:
-                break
-            step /= 2
-            halvings += 1
-            current = _step_matrix(step, pivot) @ best
-            continue
-        best, best_total, halvings = current, total, 0
-        pivot, radius, normal, rhs = _normal_equations(landed, value, gx, gy, scale)
-        normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
-        motion = params.newton_factor * np.linalg.solve(normal, rhs)
-        length = float(np.linalg.norm(motion))
-        longest = max(params.max_step_cells, params.max_step_sigmas * field.sigma)
-        if length > longest:
-            motion *= longest / length
-        if length < params.converged_cells:
-            break
-        step = np.array([motion[0], motion[1], motion[2] / radius])
-        current = _step_matrix(step, pivot) @ best
-    return best
-
-
-@numba.njit(cache=True, nogil=True)
-def _normal_equations(
-    landed: NDArray[np.float64],
-    value: NDArray[np.float64],
-    grad_x: NDArray[np.float64],
-    grad_y: NDArray[np.float64],
-    scale: float,
-) -> tuple[NDArray[np.float64], float, NDArray[np.float64], NDArray[np.float64]]:
-    """Gauss-Newton's normal equations ``JᵀJ ξ = Jᵀ(1 - M)`` for a motion about the pivot.
-
-    ``landed`` are the moved cells, ``value`` and ``grad_*`` the field and its
-    gradient there (image pixels, ``scale`` cells each). The unknowns are the
-    shift along x and y and the turn about the cells' mean (the pivot),
-    measured in cells of RMS motion (turn times the RMS radius), like the
-    shift, so that damping and step limits treat all three alike on a map of
-    any size. Returns the pivot, the RMS radius, ``JᵀJ`` and ``Jᵀ(1 - M)``.
-    """
-    count = landed.shape[0]
-    pivot = np.zeros(2)
-    for i in range(count):
-        pivot[0] += landed[i, 0]
-        pivot[1] += landed[i, 1]
-    pivot /= count
-    spread = 0.0
-    for i in range(count):
-        spread += (landed[i, 0] - pivot[0]) ** 2 + (landed[i, 1] - pivot[1]) ** 2
-    radius = np.sqrt(spread / count) + 1e-9
-    normal = np.zeros((3, 3))
-    rhs = np.zeros(3)
-    row = np.empty(3)
-    for i in range(count):
-        gx, gy = grad_x[i] / scale, grad_y[i] / scale
-        row[0] = gx
-        row[1] = gy
-        row[2] = (-gx * (landed[i, 1] - pivot[1]) + gy * (landed[i, 0] - pivot[0])) / radius
-        residual = 1.0 - value[i]
-        for j in range(3):
-            rhs[j] += row[j] * residual
-            for k in range(3):
-                normal[j, k] += row[j] * row[k]
-    return pivot, radius, normal, rhs
-
-
-def _step_matrix(step: NDArray[np.float64], pivot: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Turn by ``step[2]`` about ``pivot``, then shift by ``step[:2]``."""
-    update = rotation_about(float(step[2]), pivot)
-    update[:2, 2] += step[:2]
-    return update
+    return gauss_newton(
+        field.image,
+        float(field.corner[0]),
+        float(field.corner[1]),
+        float(field.scale),
+        float(field.sigma),
+        np.ascontiguousarray(points, dtype=np.float64),
+        np.ascontiguousarray(start, dtype=np.float64),
+        int(iterations),
+        int(params.backtracks),
+        float(params.damping),
+        float(params.newton_factor),
+        float(params.max_step_cells),
+        float(params.max_step_sigmas),
+        float(params.converged_cells),
+    )
 
 
 def constraint_strength(
@@ -412,22 +280,33 @@ def constraint_strength(
     # Steps of one cell of RMS motion along each coordinate.
     steps = params.curvature_step / np.sqrt(np.diag(metric))
 
-    def objective(delta: NDArray[np.float64]) -> float:
-        update = rotation_about(delta[2], pivot)
-        update[:2, 2] += delta[:2]
-        return _objective(field, update @ matrix, points)
-
-    centre = objective(np.zeros(3))
-    hessian = np.zeros((3, 3))
+    # Σ M at the transform and moved along each pair of coordinates, in one call.
     basis = np.eye(3) * steps
+    moves = [np.zeros(3)]
     for i in range(3):
-        plus, minus = objective(basis[i]), objective(-basis[i])
+        moves += [basis[i], -basis[i]]
+        for j in range(i + 1, 3):
+            moves += [basis[i] + basis[j], basis[i] - basis[j]]
+            moves += [-basis[i] + basis[j], -basis[i] - basis[j]]
+    sums = iter(
+        field_sums(
+            field.image,
+            float(field.corner[0]),
+            float(field.corner[1]),
+            float(field.scale),
+            np.ascontiguousarray(points, dtype=np.float64),
+            np.ascontiguousarray(matrix, dtype=np.float64),
+            np.ascontiguousarray(pivot, dtype=np.float64),
+            np.array(moves),
+        ).tolist()
+    )
+    centre = next(sums)
+    hessian = np.zeros((3, 3))
+    for i in range(3):
+        plus, minus = next(sums), next(sums)
         hessian[i, i] = (plus - 2 * centre + minus) / steps[i] ** 2
         for j in range(i + 1, 3):
-            pp = objective(basis[i] + basis[j])
-            pm = objective(basis[i] - basis[j])
-            mp = objective(-basis[i] + basis[j])
-            mm = objective(-basis[i] - basis[j])
+            pp, pm, mp, mm = next(sums), next(sums), next(sums), next(sums)
             hessian[i, j] = hessian[j, i] = (pp - pm - mp + mm) / (4 * steps[i] * steps[j])
     whiten = np.diag(1.0 / np.sqrt(np.diag(metric)))
     curvature = -whiten @ hessian @ whiten

@@ -13,7 +13,8 @@ from merging.angular import _bilinear, angular_spectrum, rotation_correlation, r
 from merging.blur import blur_walls
 from merging.grid import free_mask, occupied_mask
 from merging.params import TomographicParams
-from merging.refine import Field, SmoothedMap, _field_sample, _normal_equations, refine_transform
+from merging.refine import Field, SmoothedMap, _field_sample, refine_transform
+from merging.refine_kernels import normal_equations
 from merging.tomographic import refine_from
 from merging.transforms import apply_transform, rigid_matrix
 from merging.verify import (
@@ -256,7 +257,7 @@ def test_compiled_normal_equations_match_numpy() -> None:
     generator = np.random.default_rng(5)
     landed = generator.uniform(0, 100, (300, 2))
     value, grad_x, grad_y = generator.random((3, 300))
-    pivot, radius, normal, rhs = _normal_equations(landed, value, grad_x, grad_y, 2.0)
+    pivot, radius, normal, rhs = normal_equations(landed, value, grad_x, grad_y, 2.0)
     rel = landed - landed.mean(axis=0)
     expected_radius = np.sqrt(np.mean(np.sum(rel**2, axis=1))) + 1e-9
     gx, gy = grad_x / 2.0, grad_y / 2.0

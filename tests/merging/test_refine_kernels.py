@@ -1,0 +1,183 @@
+"""The compiled loops of the refinement, verification and mirror check against numpy.
+
+Each kernel replaced a loop of numpy statements; these tests keep those
+statements as the reference and ask for the same numbers to the last bit, so
+that the merger's answers do not move when the loop is compiled.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from merging.blur import blur_walls
+from merging.mirror import _landing_mask
+from merging.params import GaussNewtonParams
+from merging.refine import Field, SmoothedMap, _field_sample, _gauss_newton, constraint_strength
+from merging.refine_kernels import normal_equations, pairwise_sum
+from merging.transforms import rigid_matrix, rotation_about
+from merging.verify import _landing, prepare_map, verify
+
+from .conftest import synthetic_building
+from .test_tomographic import turned
+
+
+@pytest.mark.parametrize("count", [0, 1, 7, 8, 9, 100, 128, 129, 136, 1000, 4099, 30011])
+def test_pairwise_sum_is_numpys_sum(count: int) -> None:
+    values = np.random.default_rng(count).random(count) ** 3
+    assert pairwise_sum(values) == float(values.sum())
+
+
+def _numpy_gauss_newton(field: Field, points, start, iterations: int, params: GaussNewtonParams):
+    """The refinement's loop as numpy statements (the reference of the compiled one)."""
+
+    def step_matrix(step, pivot):
+        update = rotation_about(float(step[2]), pivot)
+        update[:2, 2] += step[:2]
+        return update
+
+    best, best_total, current = start, -np.inf, start
+    step, pivot, halvings = np.zeros(3), np.zeros(2), 0
+    for _ in range(iterations + params.backtracks):
+        landed, value, gx, gy = _field_sample(field, current, points)
+        if len(value) < 3:
+            break
+        total = float(value.sum())
+        if total <= best_total:
+            if halvings == params.backtracks:
+                break
+            step /= 2
+            halvings += 1
+            current = step_matrix(step, pivot) @ best
+            continue
+        best, best_total, halvings = current, total, 0
+        pivot, radius, normal, rhs = normal_equations(landed, value, gx, gy, field.scale)
+        normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
+        motion = params.newton_factor * np.linalg.solve(normal, rhs)
+        length = float(np.linalg.norm(motion))
+        longest = max(params.max_step_cells, params.max_step_sigmas * field.sigma)
+        if length > longest:
+            motion *= longest / length
+        if length < params.converged_cells:
+            break
+        step = np.array([motion[0], motion[1], motion[2] / radius])
+        current = step_matrix(step, pivot) @ best
+    return best
+
+
+@pytest.mark.parametrize("sigma", [4.0, 2.0, 1.0, 0.6])
+def test_compiled_gauss_newton_is_the_numpy_loop(sigma: float) -> None:
+    grid = synthetic_building(3)
+    map2, truth = turned(grid, 25.0, (6.0, -4.0))
+    first, second = prepare_map(grid), prepare_map(map2)
+    field = SmoothedMap(first.walls, first.shape).field(sigma)
+    params = GaussNewtonParams()
+    generator = np.random.default_rng(int(sigma * 10))
+    for _ in range(5):
+        start = rigid_matrix(*generator.normal(0, 2, 2), generator.normal(0, 0.02)) @ truth
+        expected = _numpy_gauss_newton(field, second.points, start, 10, params)
+        assert np.array_equal(_gauss_newton(field, second.points, start, 10, params), expected)
+        assert not np.array_equal(expected, start)
+
+
+def test_constraint_strength_is_the_numpy_finite_differences() -> None:
+    grid = synthetic_building(4)
+    map2, truth = turned(grid, 40.0, (3.0, 2.0))
+    first, second = prepare_map(grid), prepare_map(map2)
+    smoothed = SmoothedMap(first.walls, first.shape)
+    params = GaussNewtonParams()
+    field = smoothed.field(params.curvature_sigma)
+    stride = max(1, int(np.ceil(len(second.points) / params.curvature_points)))
+    points = second.points[::stride]
+    landed = points @ truth[:2, :2].T + truth[:2, 2]
+    pivot = landed.mean(axis=0)
+    metric = np.diag([1.0, 1.0, float(np.mean(np.sum((landed - pivot) ** 2, axis=1)))])
+    steps = params.curvature_step / np.sqrt(np.diag(metric))
+
+    def objective(delta):
+        update = rotation_about(delta[2], pivot)
+        update[:2, 2] += delta[:2]
+        return float(_field_sample(field, update @ truth, points)[1].sum())
+
+    centre, hessian, basis = objective(np.zeros(3)), np.zeros((3, 3)), np.eye(3) * steps
+    for i in range(3):
+        plus, minus = objective(basis[i]), objective(-basis[i])
+        hessian[i, i] = (plus - 2 * centre + minus) / steps[i] ** 2
+        for j in range(i + 1, 3):
+            pp, pm = objective(basis[i] + basis[j]), objective(basis[i] - basis[j])
+            mp, mm = objective(-basis[i] + basis[j]), objective(-basis[i] - basis[j])
+            hessian[i, j] = hessian[j, i] = (pp - pm - mp + mm) / (4 * steps[i] * steps[j])
+    whiten = np.diag(1.0 / np.sqrt(np.diag(metric)))
+    curvature = -whiten @ hessian @ whiten
+    expected = max(float(np.linalg.eigvalsh(0.5 * (curvature + curvature.T))[0]), 0.0) * stride
+    assert constraint_strength(smoothed, second, truth, params=params) == expected
+    assert expected > 0
+
+
+@pytest.mark.parametrize("sigma", [0.6, 1.0, 2.0, 4.0])
+@pytest.mark.parametrize("box", [None, (30, 20, 170, 140)])
+def test_field_image_is_the_blurred_scaled_capped_walls(sigma, box) -> None:
+    grid = synthetic_building(2)
+    first = prepare_map(grid)
+    smoothed = SmoothedMap(first.walls, first.shape)
+    field = smoothed.field(sigma, box=box)
+    x_lo, y_lo, x_hi, y_hi = box or (0, 0, grid.shape[1], grid.shape[0])
+    walls = first.walls
+    inside = (
+        (walls[:, 0] >= x_lo) & (walls[:, 0] < x_hi) & (walls[:, 1] >= y_lo) & (walls[:, 1] < y_hi)
+    )
+    cells = ((walls[inside] - np.array([x_lo, y_lo])) // field.scale).astype(np.intp)
+    shape = tuple(int(np.ceil(n / field.scale)) for n in (y_hi - y_lo, x_hi - x_lo))
+    width = sigma / field.scale
+    smooth = blur_walls(cells[:, 1], cells[:, 0], shape, width, truncate=3.0)
+    smooth *= np.float32(np.sqrt(2 * np.pi) * width)
+    expected = np.pad(np.minimum(smooth, 1.0), 1)
+    assert field.image.dtype == np.float32
+    assert np.array_equal(field.image, expected)
+
+
+def test_verification_counts_both_ways_as_numpy_does(building: np.ndarray) -> None:
+    first, second = prepare_map(building), prepare_map(turned(building, 20.0, (5, -3))[0])
+    matrix = rigid_matrix(12.0, -7.0, 0.35)
+    inverse = np.linalg.inv(matrix)
+    for stride in (1, 3):
+        check = verify(first, second, matrix, stride=stride)
+        known_f, near_f, clear_f = _landing(matrix, second.points, stride, first)
+        known_b, near_b, clear_b = _landing(inverse, first.points, stride, second)
+        weight1, weight2 = first.point_weight * stride, second.point_weight * stride
+        assert check.overlap == known_f * weight2 + known_b * weight1
+        assert check.agreeing == near_f * weight2 + near_b * weight1
+        assert check.conflict * check.overlap == pytest.approx(
+            clear_f * weight2 + clear_b * weight1
+        )
+        open_f = _landing(matrix, second.open_points, stride, first)[2]
+        open_b = _landing(inverse, first.open_points, stride, second)[2]
+        shared = open_f * (second.open_weight * stride) + open_b * (first.open_weight * stride)
+        assert check.shared_space == shared
+        assert shared > 0
+
+
+@pytest.mark.parametrize("stride_cells", [1, 3])
+def test_landing_mask_is_the_numpy_one(stride_cells: int, monkeypatch) -> None:
+    # Blocks of cells are decided together above REGION_SAMPLES cells; shrink it to test both.
+    import merging.mirror as mirror
+
+    grid = synthetic_building(1)
+    source, target = grid >= 0, np.random.default_rng(2).random((150, 230)) < 0.6
+    monkeypatch.setattr(mirror, "REGION_SAMPLES", source.size // stride_cells**2)
+    matrix = rigid_matrix(-20.0, 13.5, 0.4)
+    stride = max(1, int(np.sqrt(source.size / mirror.REGION_SAMPLES)))
+    assert stride == stride_cells
+    sampled = source[::stride, ::stride]
+    rows, cols = np.nonzero(sampled)
+    x = np.rint(matrix[0, 0] * cols * stride + matrix[0, 1] * rows * stride + matrix[0, 2])
+    y = np.rint(matrix[1, 0] * cols * stride + matrix[1, 1] * rows * stride + matrix[1, 2])
+    x, y = x.astype(np.intp), y.astype(np.intp)
+    inside = (y >= 0) & (y < target.shape[0]) & (x >= 0) & (x < target.shape[1])
+    hit = np.zeros(sampled.shape, dtype=bool)
+    hit[rows[inside], cols[inside]] = target[y[inside], x[inside]]
+    expected = np.repeat(np.repeat(hit, stride, axis=0), stride, axis=1)
+    expected = expected[: source.shape[0], : source.shape[1]] & source
+    result = _landing_mask(source, matrix, target)
+    assert np.array_equal(result, expected)
+    assert 0 < result.sum() < source.sum()
