@@ -103,11 +103,40 @@ def blur_sparse(
 ) -> NDArray[np.float32]:
     """:func:`blur_walls` of cells known to lie inside ``(n_rows, n_cols)``, with the 1-D
     ``kernel`` of :func:`gaussian_kernel` (compiled, for callers that are themselves)."""
+    cells = n_rows * n_cols
+    out = np.zeros(cells)
+    blur_sums(rows, cols, n_rows, n_cols, kernel, np.zeros(cells, dtype=np.uint8),
+              np.zeros(cells), out)  # fmt: skip
+    return out.reshape((n_rows, n_cols)).astype(np.float32)
+
+
+@numba.njit(cache=True, nogil=True)
+def blur_sums(
+    rows: NDArray[np.intp],
+    cols: NDArray[np.intp],
+    n_rows: int,
+    n_cols: int,
+    kernel: NDArray[np.float64],
+    state_space: NDArray[np.uint8],
+    down_space: NDArray[np.float64],
+    out_space: NDArray[np.float64],
+) -> None:
+    """The blur's sums, before rounding to ``float32``, added into ``out_space``.
+
+    ``out_space`` holds at least ``n_rows * n_cols`` values, zero on entry;
+    its first ones receive the ``(n_rows, n_cols)`` image, row by row.
+    ``state_space`` and ``down_space`` are as long, zero on entry, and zero
+    again on return: a caller may keep all three for the next call, instead
+    of the operating system handing out (and faulting in) fresh pages for
+    every field, which cost more than the sums on a map of 300 x 300 cells.
+    """
+    cells = n_rows * n_cols
     radius = (kernel.shape[0] - 1) // 2
     # 1: a wall cell seen; 2: a cell of the first pass carried along its row.
-    state = np.zeros((n_rows, n_cols), dtype=np.uint8)
+    state = state_space[:cells].reshape((n_rows, n_cols))
     # The first pass's sums, stored column by column so that a wall's run is contiguous.
-    down = np.zeros((n_cols, n_rows), dtype=np.float64)
+    down = down_space[:cells].reshape((n_cols, n_rows))
+    out = out_space[:cells].reshape((n_rows, n_cols))
     unique = 0
     wall_rows = np.empty(rows.shape[0], dtype=np.intp)
     wall_cols = np.empty(rows.shape[0], dtype=np.intp)
@@ -121,10 +150,10 @@ def blur_sparse(
         unique += 1
         for o in range(-radius, radius + 1):
             down[c, _reflect(r + o, n_rows)] += kernel[o + radius]
-    state[:, :] = 0
+    for k in range(unique):
+        state[wall_rows[k], wall_cols[k]] = 0
     # Pass along the columns (axis 1), over the cells the first pass reached, each once,
-    # from its value rounded as SciPy stores it.
-    out = np.zeros((n_rows, n_cols), dtype=np.float64)
+    # from its value rounded as SciPy stores it; each is read once, and cleared.
     for k in range(unique):
         c = wall_cols[k]
         for o in range(-radius, radius + 1):
@@ -133,6 +162,10 @@ def blur_sparse(
                 continue
             state[r, c] = 2
             value = np.float64(np.float32(down[c, r]))
+            down[c, r] = 0.0
             for p in range(-radius, radius + 1):
                 out[r, _reflect(c + p, n_cols)] += value * kernel[p + radius]
-    return out.astype(np.float32)
+    for k in range(unique):
+        c = wall_cols[k]
+        for o in range(-radius, radius + 1):
+            state[_reflect(wall_rows[k] + o, n_rows), c] = 0

@@ -17,6 +17,7 @@ schedule of ``sigma`` widens the basin first and sharpens the optimum last.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,12 +111,41 @@ class SmoothedMap:
         gain = float(np.float32(np.sqrt(2 * np.pi) * width))
         corners = (int(x_lo), int(y_lo), int(x_hi), int(y_hi))
         kernel = gaussian_kernel(width, 3.0)
-        image = wall_field(self._walls, corners, box is not None, scale,
-                           (max(rows, 1), max(cols, 1)), kernel, gain)  # fmt: skip
+        shape = (max(rows, 1), max(cols, 1))
+        space = _work_space(shape[0] * shape[1])
+        image = wall_field(self._walls, corners, box is not None, scale, shape, kernel, gain,
+                           space)  # fmt: skip
         field = Field(image, scale, (x_lo, y_lo), sigma)
         if box is None:
             self._fields[sigma] = field
         return field
+
+
+WORK_SPACE_CELLS = 1 << 20
+"""Field pixels up to which a thread keeps the blur's work space (17 MB) for the next field."""
+
+_kept = threading.local()
+
+
+def _work_space(
+    cells: int,
+) -> tuple[NDArray[np.uint8], NDArray[np.float64], NDArray[np.float64]]:
+    """Zeroed work space of :func:`merging.blur.blur_sums` for ``cells`` pixels.
+
+    A field of a few hundred thousand pixels in fresh memory costs more in the
+    operating system's page faults than in its sums; the kernels leave the
+    space zeroed, so each thread keeps one for fields up to
+    :data:`WORK_SPACE_CELLS` pixels.
+    """
+    space = getattr(_kept, "space", None)
+    if space is not None and space[0].size >= cells:
+        return space
+    size = 1 << max(cells - 1, 1).bit_length()  # room to grow into
+    if size > WORK_SPACE_CELLS:
+        return (np.zeros(cells, dtype=np.uint8), np.zeros(cells), np.zeros(cells))
+    space = (np.zeros(size, dtype=np.uint8), np.zeros(size), np.zeros(size))
+    _kept.space = space
+    return space
 
 
 def field_scale(sigma: float, downsample_from: float) -> float:

@@ -21,7 +21,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.blur import blur_sparse
+from merging.blur import blur_sums
 
 PAIRWISE_BLOCK = 128
 """Values numpy's pairwise summation adds in eight running sums before it halves a run."""
@@ -321,11 +321,13 @@ def wall_field(
     shape: tuple[int, int],
     kernel: NDArray[np.float64],
     gain: float,
+    space: tuple[NDArray[np.uint8], NDArray[np.float64], NDArray[np.float64]],
 ) -> NDArray[np.float32]:
     """The image of a :class:`merging.refine.Field`: the walls ``(x, y)`` inside ``box =
     (x_lo, y_lo, x_hi, y_hi)`` (all of them unless ``boxed``), in pixels of ``scale`` cells
     from its corner, blurred (``kernel``) on ``shape`` pixels, times ``gain`` (float32),
-    capped at 1 and framed by one zero pixel."""
+    capped at 1 and framed by one zero pixel. ``space`` is the work space of
+    :func:`merging.blur.blur_sums`, zero on entry and on return."""
     x_lo, y_lo, x_hi, y_hi = box
     count = walls.shape[0]
     rows = np.empty(count, dtype=np.intp)
@@ -338,12 +340,16 @@ def wall_field(
         cols[kept] = int((x - x_lo) // scale)
         rows[kept] = int((y - y_lo) // scale)
         kept += 1
-    smooth = blur_sparse(rows[:kept], cols[:kept], shape[0], shape[1], kernel)
-    image = np.zeros((shape[0] + 2, shape[1] + 2), dtype=np.float32)
+    n_rows, n_cols = shape
+    state, down, sums = space
+    blur_sums(rows[:kept], cols[:kept], n_rows, n_cols, kernel, state, down, sums)
+    image = np.zeros((n_rows + 2, n_cols + 2), dtype=np.float32)
     factor = np.float32(gain)
     one = np.float32(1.0)
-    for r in range(shape[0]):
-        for c in range(shape[1]):
-            value = smooth[r, c] * factor
+    for r in range(n_rows):
+        for c in range(n_cols):
+            at = r * n_cols + c
+            value = np.float32(sums[at]) * factor
+            sums[at] = 0.0
             image[r + 1, c + 1] = value if value < one else one
     return image

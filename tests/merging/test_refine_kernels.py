@@ -181,3 +181,19 @@ def test_landing_mask_is_the_numpy_one(stride_cells: int, monkeypatch) -> None:
     result = _landing_mask(source, matrix, target)
     assert np.array_equal(result, expected)
     assert 0 < result.sum() < source.sum()
+
+
+def test_fields_in_kept_work_space_match_fresh_ones() -> None:
+    # Each field leaves the blur's work space zeroed, so the next one, of another size,
+    # starts clean: fields made one after the other equal those made alone.
+    from merging import refine
+
+    grid = synthetic_building(6)
+    first = prepare_map(grid)
+    requests = [(1.0, None), (0.6, (40, 30, 200, 150)), (2.0, None), (1.0, (10, 5, 90, 250))]
+    made = [SmoothedMap(first.walls, first.shape).field(s, box=b).image for s, b in requests]
+    for (sigma, box), image in zip(reversed(requests), reversed(made), strict=True):
+        again = SmoothedMap(first.walls, first.shape).field(sigma, box=box)
+        assert np.array_equal(again.image, image)
+    state, down, sums = refine._work_space(1)
+    assert not state.any() and not down.any() and not sums.any()
