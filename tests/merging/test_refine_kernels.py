@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import fft, ndimage
 
 from merging.blur import blur_walls
+from merging.correlate import padded_rfft2
 from merging.mirror import _landing_mask
 from merging.params import GaussNewtonParams
 from merging.refine import Field, SmoothedMap, _field_sample, _gauss_newton, constraint_strength
@@ -197,3 +199,24 @@ def test_fields_in_kept_work_space_match_fresh_ones() -> None:
         assert np.array_equal(again.image, image)
     state, down, sums = refine._work_space(1)
     assert not state.any() and not down.any() and not sums.any()
+
+
+@pytest.mark.parametrize(
+    "shape, size", [((37, 50), (80, 96)), ((120, 9), (125, 160)), ((1, 1), (8, 8))]
+)
+def test_padded_rfft2_is_scipys(shape, size) -> None:
+    image = (np.random.default_rng(shape[0]).random(shape) < 0.1).astype(np.float32)
+    expected = fft.rfft2(image, s=size)
+    result = padded_rfft2(image, size)
+    assert result.dtype == expected.dtype == np.complex64
+    assert np.array_equal(result, expected)
+
+
+def test_blur_reflects_at_the_edges_as_scipy_does() -> None:
+    # Walls on the border and a kernel wider than a tiny image: every index folds back.
+    rows, cols = np.array([0, 0, 2, 1]), np.array([0, 3, 3, 1])
+    for sigma in (0.6, 2.0, 5.0):
+        image = np.zeros((3, 4), dtype=np.float32)
+        image[rows, cols] = 1.0
+        expected = ndimage.gaussian_filter(image, sigma, truncate=3.0)
+        assert np.array_equal(blur_walls(rows, cols, (3, 4), sigma, truncate=3.0), expected)
