@@ -86,6 +86,8 @@ def blur_walls(
 @numba.njit(cache=True, nogil=True)
 def _reflect(index: int, size: int) -> int:
     """Where ``index`` falls on a line of ``size`` cells mirrored at its ends (``b a|a b|b a``)."""
+    if 0 <= index < size:  # nearly always: no division
+        return index
     period = 2 * size
     index %= period
     if index >= size:
