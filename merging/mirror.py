@@ -261,27 +261,65 @@ def _landing_mask(
     milliseconds instead of a few tenths of a second.
     """
     stride = max(1, int(np.sqrt(source.size / REGION_SAMPLES)))
+    matrix = np.ascontiguousarray(matrix, dtype=np.float64)
     return _lands_on(
         np.ascontiguousarray(source),
-        np.ascontiguousarray(matrix, dtype=np.float64),
+        matrix,
         np.ascontiguousarray(target),
         stride,
+        _reach(matrix, source.shape, target, stride),
     )
+
+
+def _reach(
+    matrix: NDArray[np.float64],
+    source_shape: tuple[int, ...],
+    target: NDArray[np.bool_],
+    stride: int,
+) -> tuple[int, int, int, int]:
+    """Rows and columns ``(row_lo, row_hi, col_lo, col_hi)`` of ``source`` outside which
+    no cell centre, carried by ``matrix``, lands on a set cell of ``target``.
+
+    The box around the target's set cells, carried back, is a parallelogram;
+    its bounding box, grown by a cell and starting on a sample of the
+    ``stride`` grid, is all that :func:`_lands_on` needs to visit. On a
+    low-overlap pair it is a sliver of the map.
+    """
+    rows, cols = source_shape[0], source_shape[1]
+    set_rows, set_cols = np.flatnonzero(target.any(axis=1)), np.flatnonzero(target.any(axis=0))
+    if not len(set_rows):
+        return 0, 0, 0, 0
+    top, bottom = set_rows[0] - 0.5, set_rows[-1] + 0.5
+    left, right = set_cols[0] - 0.5, set_cols[-1] + 0.5
+    corners = np.array([[left, top], [right, top], [left, bottom], [right, bottom]])
+    back = apply_transform(np.linalg.inv(matrix), corners)
+    if not np.all(np.isfinite(back)):
+        return 0, rows, 0, cols
+    low, high = np.floor(back.min(axis=0)) - 1.0, np.ceil(back.max(axis=0)) + 1.0
+    col_lo = int(np.clip(low[0], 0, cols)) // stride * stride
+    row_lo = int(np.clip(low[1], 0, rows)) // stride * stride
+    col_hi, row_hi = int(np.clip(high[0] + 1, 0, cols)), int(np.clip(high[1] + 1, 0, rows))
+    return row_lo, row_hi, col_lo, col_hi
 
 
 @numba.njit(cache=True, nogil=True)
 def _lands_on(
-    source: NDArray[np.bool_], matrix: NDArray[np.float64], target: NDArray[np.bool_], stride: int
+    source: NDArray[np.bool_],
+    matrix: NDArray[np.float64],
+    target: NDArray[np.bool_],
+    stride: int,
+    reach: tuple[int, int, int, int],
 ) -> NDArray[np.bool_]:
-    """:func:`_landing_mask` for every ``stride``-th row and column of ``source``: a sample
-    carried (to the nearest cell, halves to even) onto ``target`` sets the cells of
-    ``source`` in its block."""
+    """:func:`_landing_mask` for every ``stride``-th row and column of ``source`` within
+    ``reach`` (:func:`_reach`): a sample carried (to the nearest cell, halves to even)
+    onto ``target`` sets the cells of ``source`` in its block."""
     rows, cols = source.shape
+    row_lo, row_hi, col_lo, col_hi = reach
     out = np.zeros((rows, cols), dtype=np.bool_)
     a, b, c = matrix[0, 0], matrix[0, 1], matrix[0, 2]
     d, e, f = matrix[1, 0], matrix[1, 1], matrix[1, 2]
-    for row in range(0, rows, stride):
-        for col in range(0, cols, stride):
+    for row in range(row_lo, row_hi, stride):
+        for col in range(col_lo, col_hi, stride):
             if not source[row, col]:
                 continue
             x = int(np.rint(a * col + b * row + c))

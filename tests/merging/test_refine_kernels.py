@@ -160,14 +160,18 @@ def test_verification_counts_both_ways_as_numpy_does(building: np.ndarray) -> No
 
 
 @pytest.mark.parametrize("stride_cells", [1, 3])
-def test_landing_mask_is_the_numpy_one(stride_cells: int, monkeypatch) -> None:
+@pytest.mark.parametrize(
+    "pose",
+    [(-20.0, 13.5, 0.4), (300.0, -100.0, 2.5), (-150.0, 200.0, -1.0), (200.0, -100.0, np.pi / 2)],
+)
+def test_landing_mask_is_the_numpy_one(stride_cells: int, pose, monkeypatch) -> None:
     # Blocks of cells are decided together above REGION_SAMPLES cells; shrink it to test both.
     import merging.mirror as mirror
 
     grid = synthetic_building(1)
     source, target = grid >= 0, np.random.default_rng(2).random((150, 230)) < 0.6
     monkeypatch.setattr(mirror, "REGION_SAMPLES", source.size // stride_cells**2)
-    matrix = rigid_matrix(-20.0, 13.5, 0.4)
+    matrix = rigid_matrix(*pose)
     stride = max(1, int(np.sqrt(source.size / mirror.REGION_SAMPLES)))
     assert stride == stride_cells
     sampled = source[::stride, ::stride]
@@ -183,6 +187,17 @@ def test_landing_mask_is_the_numpy_one(stride_cells: int, monkeypatch) -> None:
     result = _landing_mask(source, matrix, target)
     assert np.array_equal(result, expected)
     assert 0 < result.sum() < source.sum()
+    # The reflection the mirror check uses lands cells the same way.
+    flipped = np.array([[-1.0, 0.0, 229.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) @ matrix
+    x = np.rint(flipped[0, 0] * cols * stride + flipped[0, 1] * rows * stride + flipped[0, 2])
+    y = np.rint(flipped[1, 0] * cols * stride + flipped[1, 1] * rows * stride + flipped[1, 2])
+    x, y = x.astype(np.intp), y.astype(np.intp)
+    inside = (y >= 0) & (y < target.shape[0]) & (x >= 0) & (x < target.shape[1])
+    hit = np.zeros(sampled.shape, dtype=bool)
+    hit[rows[inside], cols[inside]] = target[y[inside], x[inside]]
+    expected = np.repeat(np.repeat(hit, stride, axis=0), stride, axis=1)
+    expected = expected[: source.shape[0], : source.shape[1]] & source
+    assert np.array_equal(_landing_mask(source, flipped, target), expected)
 
 
 def test_fields_in_kept_work_space_match_fresh_ones() -> None:
