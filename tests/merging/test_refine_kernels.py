@@ -159,6 +159,20 @@ def test_verification_counts_both_ways_as_numpy_does(building: np.ndarray) -> No
         assert shared > 0
 
 
+def _numpy_landing_mask(source, matrix, target, stride: int):
+    """The landing mask as numpy statements: samples carried, looked up, grown to blocks."""
+    sampled = source[::stride, ::stride]
+    rows, cols = np.nonzero(sampled)
+    x = np.rint(matrix[0, 0] * cols * stride + matrix[0, 1] * rows * stride + matrix[0, 2])
+    y = np.rint(matrix[1, 0] * cols * stride + matrix[1, 1] * rows * stride + matrix[1, 2])
+    x, y = x.astype(np.intp), y.astype(np.intp)
+    inside = (y >= 0) & (y < target.shape[0]) & (x >= 0) & (x < target.shape[1])
+    hit = np.zeros(sampled.shape, dtype=bool)
+    hit[rows[inside], cols[inside]] = target[y[inside], x[inside]]
+    grown = np.repeat(np.repeat(hit, stride, axis=0), stride, axis=1)
+    return grown[: source.shape[0], : source.shape[1]] & source
+
+
 @pytest.mark.parametrize("stride_cells", [1, 3])
 @pytest.mark.parametrize(
     "pose",
@@ -171,33 +185,21 @@ def test_landing_mask_is_the_numpy_one(stride_cells: int, pose, monkeypatch) -> 
     grid = synthetic_building(1)
     source, target = grid >= 0, np.random.default_rng(2).random((150, 230)) < 0.6
     monkeypatch.setattr(mirror, "REGION_SAMPLES", source.size // stride_cells**2)
-    matrix = rigid_matrix(*pose)
     stride = max(1, int(np.sqrt(source.size / mirror.REGION_SAMPLES)))
     assert stride == stride_cells
-    sampled = source[::stride, ::stride]
-    rows, cols = np.nonzero(sampled)
-    x = np.rint(matrix[0, 0] * cols * stride + matrix[0, 1] * rows * stride + matrix[0, 2])
-    y = np.rint(matrix[1, 0] * cols * stride + matrix[1, 1] * rows * stride + matrix[1, 2])
-    x, y = x.astype(np.intp), y.astype(np.intp)
-    inside = (y >= 0) & (y < target.shape[0]) & (x >= 0) & (x < target.shape[1])
-    hit = np.zeros(sampled.shape, dtype=bool)
-    hit[rows[inside], cols[inside]] = target[y[inside], x[inside]]
-    expected = np.repeat(np.repeat(hit, stride, axis=0), stride, axis=1)
-    expected = expected[: source.shape[0], : source.shape[1]] & source
+    matrix = rigid_matrix(*pose)
     result = _landing_mask(source, matrix, target)
-    assert np.array_equal(result, expected)
+    assert np.array_equal(result, _numpy_landing_mask(source, matrix, target, stride))
     assert 0 < result.sum() < source.sum()
     # The reflection the mirror check uses lands cells the same way.
     flipped = np.array([[-1.0, 0.0, 229.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) @ matrix
-    x = np.rint(flipped[0, 0] * cols * stride + flipped[0, 1] * rows * stride + flipped[0, 2])
-    y = np.rint(flipped[1, 0] * cols * stride + flipped[1, 1] * rows * stride + flipped[1, 2])
-    x, y = x.astype(np.intp), y.astype(np.intp)
-    inside = (y >= 0) & (y < target.shape[0]) & (x >= 0) & (x < target.shape[1])
-    hit = np.zeros(sampled.shape, dtype=bool)
-    hit[rows[inside], cols[inside]] = target[y[inside], x[inside]]
-    expected = np.repeat(np.repeat(hit, stride, axis=0), stride, axis=1)
-    expected = expected[: source.shape[0], : source.shape[1]] & source
+    expected = _numpy_landing_mask(source, flipped, target, stride)
     assert np.array_equal(_landing_mask(source, flipped, target), expected)
+    # A target with a few set cells only: just the cells that land on them.
+    sparse = np.zeros_like(target)
+    sparse[60:70, 100:104] = True
+    expected = _numpy_landing_mask(source, matrix, sparse, stride)
+    assert np.array_equal(_landing_mask(source, matrix, sparse), expected)
 
 
 def test_fields_in_kept_work_space_match_fresh_ones() -> None:
