@@ -13,6 +13,10 @@ Gauss-Newton step covers half the distance to the wall centre (for a Gaussian
 profile, exactly half); the step is therefore doubled, which is Newton's step
 there, and halved again while it fails to raise ``Σ M``. A coarse-to-fine
 schedule of ``sigma`` widens the basin first and sharpens the optimum last.
+
+This module holds the fields and the schedule; the loops over cells and
+steps run compiled (:mod:`merging.refine_kernels`), with the same numbers
+as numpy statements would give.
 """
 
 from __future__ import annotations
