@@ -30,7 +30,8 @@ Only a twin of the *same* evidence counts: map 2 mirrored may fit some other
 part of map 1, but that says map 1 holds a mirror copy of map 2 elsewhere,
 not that the evidence for the placement is ambiguous. So the search for the
 twin places only the part of map 2 that the placement lays on map 1, mirrored
-(:func:`mirrored_part`), the evidence is counted inside the overlap only
+(:func:`mirrored_part`), on map 1's cells around the overlap
+(:func:`twin_ground`), the evidence is counted inside the overlap only
 (:func:`region_net`), and the placement must explain a margin more than the
 best mirrored one there (:func:`mirror_share`), as it must explain more than
 the best different placement (:func:`merging.verify.confidence`).
@@ -64,6 +65,11 @@ overlap of two whole buildings takes milliseconds and is off by a few cells at i
 edge at most, where both the placement's and its mirror image's evidence are
 counted alike."""
 
+WHOLE_GROUND_SHARE = 0.9
+"""Share of map 1's observed cells within the margin of the overlap from which the twin
+is searched for on the whole map 1 (:func:`twin_ground`): nearly the same ground, and the
+first search's fields of map 1 are reused."""
+
 Masks = tuple[NDArray[np.bool_], NDArray[np.bool_]]
 """Where a carried wall cell agrees (near a wall) and where it conflicts (clear free space)."""
 
@@ -83,11 +89,15 @@ class MirroredPart:
         counts.
     unmirror : (3, 3) float ndarray
         Takes ``mirrored``'s cells back to map 2's (a reflection).
+    around : (rows, cols) bool ndarray
+        Map 1's cells within the margin of the overlap: where the twin is
+        searched for (:func:`twin_ground`).
     """
 
     mirrored: PreparedMap
     overlap: NDArray[np.bool_]
     unmirror: NDArray[np.float64]
+    around: NDArray[np.bool_]
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,19 +147,42 @@ def mirrored_part(
     the overlap, so that the agreeing and conflicting cells inside the
     overlap are those of the whole map for walls met within ``margin -
     conflict_clearance`` cells; the rest becomes unknown. Searching for this
-    part on map 1 looks for the mirror image of the evidence, not for the
-    mirrored map anywhere; map 1 is searched whole (its fields are those the
-    first search made).
+    part on the same neighbourhood of map 1 (:func:`twin_ground`) looks for
+    the mirror image of the evidence, not for the mirrored map anywhere.
     """
     overlap = overlap_region(first, second, matrix)
-    kept = _landing_mask(second.cells >= 0, matrix, dilate(overlap, margin))
+    around = dilate(overlap, margin)
+    kept = _landing_mask(second.cells >= 0, matrix, around)
     cells, corner = observed_part(np.where(kept, second.cells, UNKNOWN).astype(np.int8))
     width = cells.shape[1]
     # Mirrored column x is the part's column width - 1 - x, map 2's column corner_x + that.
     unmirror = np.array(
         [[-1.0, 0.0, corner[0] + width - 1.0], [0.0, 1.0, corner[1]], [0.0, 0.0, 1.0]]
     )
-    return MirroredPart(prepare_map(mirrored_cells(cells), params=params), overlap, unmirror)
+    mirrored = prepare_map(mirrored_cells(cells), params=params)
+    return MirroredPart(mirrored, overlap, unmirror, around & (first.cells >= 0))
+
+
+def twin_ground(
+    first: PreparedMap, part: MirroredPart, *, params: VerifyParams = DEFAULT_VERIFY
+) -> tuple[PreparedMap, NDArray[np.float64]] | None:
+    """Map 1's cells around the overlap, where the mirrored part's twin placement lies.
+
+    Only placements that lay the mirrored part's walls inside the overlap
+    count (:func:`mirror_share`), so the twin is searched for on map 1's
+    cells within the margin of the overlap (the rest unknown), cropped: on
+    the whole map 1 a search for a small part may rank placements elsewhere
+    first and never reach the twin inside a small overlap. Returns the
+    prepared part of map 1 and its corner ``(x, y)`` in map 1's cells, or
+    None when it holds at least :data:`WHOLE_GROUND_SHARE` of map 1's
+    observed cells: map 1 is then searched whole, with the fields the first
+    search made of it.
+    """
+    known = np.count_nonzero(first.cells >= 0)
+    if np.count_nonzero(part.around) >= WHOLE_GROUND_SHARE * known:
+        return None
+    cells, corner = observed_part(np.where(part.around, first.cells, UNKNOWN).astype(np.int8))
+    return prepare_map(cells, params=params), corner
 
 
 def region_net(

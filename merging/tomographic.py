@@ -66,7 +66,8 @@ Steps
    lies on open space), see :mod:`merging.verdict`; only confident results
    are accepted, and a refusal says why.
 6. Mirror check, for a placement step 5 would accept: steps 1-4 again for
-   map 2 seen in a mirror; if it explains the same overlap about as well,
+   map 2's part of the overlap seen in a mirror, on map 1's cells around
+   the overlap; if it explains the same overlap about as well,
    the overlap looks the same in a mirror and may be either of two mirror
    twins of a symmetric building, so the placement is refused
    (:mod:`merging.mirror`). It costs about one more search, for accepted
@@ -95,7 +96,7 @@ from merging.api import register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
 from merging.grid import OccupancyGrid, observed_part, validate_cells
 from merging.metrics import as_matrix
-from merging.mirror import MirrorCandidates, mirrored_part
+from merging.mirror import MirrorCandidates, mirrored_part, twin_ground
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
 from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
@@ -398,7 +399,9 @@ def _mirror_search(
     """A search for the mirror image of the evidence for ``best`` (:mod:`merging.mirror`).
 
     Run when called: steps 1-4 for the part of map 2 that ``best`` lays on
-    map 1, seen in a mirror, on map 1 (whose fields the first search began).
+    map 1, seen in a mirror, on map 1's cells around the overlap
+    (:func:`merging.mirror.twin_ground`; the whole map 1, whose fields the
+    first search began, when that is nearly all of it).
     Its seconds go to ``timings["mirror"]``.
     """
 
@@ -412,12 +415,19 @@ def _mirror_search(
         )
         margin = params.verify.conflict_clearance + widest
         part = mirrored_part(maps.first, maps.second, best, margin=margin, params=params.verify)
-        factor = coarse_factor(
-            maps.first.shape, part.mirrored.shape, coarse_cells=params.translation.coarse_cells
-        )
         lighter = replace(params, stages=params.mirror_stages)
-        pool = _search(_Maps(maps.first, part.mirrored, lighter, begun=maps), factor, {})
-        found = MirrorCandidates(part, tuple(m for _, m in pool))
+        ground = twin_ground(maps.first, part, params=params.verify)
+        if ground is None:
+            twin_maps = _Maps(maps.first, part.mirrored, lighter, begun=maps)
+            into_first = np.eye(3)
+        else:
+            twin_maps = _Maps(ground[0], part.mirrored, lighter)
+            into_first = translation_matrix(ground[1])
+        factor = coarse_factor(
+            twin_maps.first.shape, part.mirrored.shape, coarse_cells=params.translation.coarse_cells
+        )
+        pool = _search(twin_maps, factor, {})
+        found = MirrorCandidates(part, tuple(into_first @ m for _, m in pool))
         timings["mirror"] = time.perf_counter() - clock
         return found
 

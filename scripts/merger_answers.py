@@ -101,10 +101,14 @@ def answer(suite: str, pair: str, result: merging.MergeResult) -> dict[str, Any]
 
 
 def difference(before: dict[str, Any], now: dict[str, Any]) -> str:
-    """How an answer moved: the largest change of a matrix entry, and the verdict's."""
+    """How an answer moved: the largest change of a matrix entry, the confidence's and
+    the verdict's."""
     old = np.array([float.fromhex(v) for v in before["matrix"]])
     new = np.array([float.fromhex(v) for v in now["matrix"]])
     parts = [f"matrix entries moved by up to {np.max(np.abs(new - old)):.3g}"]
+    if before["confidence"] != now["confidence"]:
+        was, now_is = float.fromhex(before["confidence"]), float.fromhex(now["confidence"])
+        parts.append(f"confidence {was:.6g} -> {now_is:.6g}")
     if before["accepted"] != now["accepted"]:
         parts.append(f"accepted {before['accepted']} -> {now['accepted']}")
     if before["reason"] != now["reason"]:

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import merging
+from merging import tomographic
 from merging.grid import observed_part
 from merging.metrics import transform_error
 from merging.mirror import (
@@ -14,12 +17,18 @@ from merging.mirror import (
     mirrored_part,
     overlap_region,
     region_net,
+    twin_ground,
 )
 from merging.transforms import rigid_matrix
 from merging.verdict import MIRROR_REASON
 from merging.verify import prepare_map
 
 from .conftest import synthetic_building
+
+TWIN_WALLS = Path(__file__).parent / "data" / "twin_walls.npz"
+"""Grids of two robots of a simulated team (generated floor 2, six robots, seed 0, step
+350) and the true transform between them (map 2 cells -> map 1 cells): the rooms each
+mapped lie side by side, a corridor apart, and their outer walls run parallel."""
 
 SEAM_MARGIN = 12
 """Cells cut off the synthetic building's bottom and right, so that the mirrored copies
@@ -139,3 +148,38 @@ def test_region_net_counts_only_inside_the_region() -> None:
     assert 0.2 * whole < region_net(prepared, prepared, np.eye(3), left) < 0.8 * whole
     # Walls counted as met within a wider tolerance: the same for identical maps.
     assert region_net(prepared, prepared, np.eye(3), everywhere, tolerance=3) == whole
+
+
+def test_twin_ground_is_map_1_around_a_small_overlap() -> None:
+    grid = synthetic_building(6)
+    prepared = prepare_map(grid)
+    shift = rigid_matrix(300.0, 0.0, 0.0)  # map 2's column x on map 1's x + 300
+    part = mirrored_part(prepared, prepared, shift, margin=5)
+    ground = twin_ground(prepared, part)
+    assert ground is not None
+    cells, (left, top) = ground
+    overlap_cols = np.flatnonzero(part.overlap.any(axis=0))
+    assert left == overlap_cols[0] - 5
+    window = grid[int(top) : int(top) + cells.shape[0], int(left) : int(left) + cells.shape[1]]
+    assert np.array_equal(cells.cells, window)
+    # Around (nearly) the whole map 1, map 1 is searched whole.
+    assert twin_ground(prepared, mirrored_part(prepared, prepared, np.eye(3), margin=5)) is None
+
+
+def test_a_twin_beside_a_shared_wall_is_refused(monkeypatch) -> None:
+    # The best placement lays map 2's rooms beside map 1's, sharing one outer wall and a
+    # corridor's walls, a corridor's width from the truth. That evidence looks the same
+    # in a mirror (a straight wall mirrored about itself), but the mirrored part's best
+    # fits on the whole map 1 lie elsewhere: only a search around the overlap finds
+    # its twin there.
+    data = np.load(TWIN_WALLS)
+    first, second, truth = data["map1"], data["map2"], data["truth"]
+    result = merging.estimate_transform(first, second)
+    assert transform_error(result.matrix, truth, second)[0] > 30.0
+    assert not result.accepted
+    assert result.reason == MIRROR_REASON
+    assert result.evidence["mirror_share"] > 0.7
+    # Searched for on the whole map 1, the twin is missed and the placement accepted.
+    monkeypatch.setattr(tomographic, "twin_ground", lambda *args, **kwargs: None)
+    missed = merging.estimate_transform(first, second)
+    assert missed.accepted and missed.evidence["mirror_share"] < 0.1
