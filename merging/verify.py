@@ -101,17 +101,32 @@ def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     The same as ``scipy.ndimage.binary_dilation(mask, np.ones((2 * radius + 1,) * 2))``
     (pinned by a test), done as separable shifted ORs: on a whole building
     (1803 x 1647 cells) 6 to 60 times faster than ``binary_dilation`` or
-    ``maximum_filter`` (``python scripts/bench_kernels.py``).
+    ``maximum_filter`` (``python scripts/bench_kernels.py``). Each axis grows
+    by doubling (:func:`_dilation_steps`): a reach of ``a`` cells ORed with
+    itself shifted by ``s <= a + 1`` both ways reaches ``a + s`` without gaps,
+    and the cells an edge cuts off would only have added cells already set,
+    so a radius of 6 takes 3 shifts a side, not 6.
     """
-    rows = mask.copy()
-    for k in range(1, radius + 1):
-        rows[:, k:] |= mask[:, :-k]
-        rows[:, :-k] |= mask[:, k:]
-    out = rows.copy()
-    for k in range(1, radius + 1):
-        out[k:, :] |= rows[:-k, :]
-        out[:-k, :] |= rows[k:, :]
+    out = mask.copy()
+    steps = _dilation_steps(radius)
+    for step in steps:
+        out[:, step:] |= out[:, :-step]
+        out[:, :-step] |= out[:, step:]
+    for step in steps:
+        out[step:, :] |= out[:-step, :]
+        out[:-step, :] |= out[step:, :]
     return out
+
+
+def _dilation_steps(radius: int) -> list[int]:
+    """Shifts that grow a reach of 0 cells to ``radius``, each at most doubling it."""
+    steps: list[int] = []
+    reach = 0
+    while reach < radius:
+        step = min(reach + 1, radius - reach)
+        steps.append(step)
+        reach += step
+    return steps
 
 
 def prepare_map(cells: NDArray[np.int8], *, params: VerifyParams = DEFAULT_VERIFY) -> PreparedMap:

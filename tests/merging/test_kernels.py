@@ -110,9 +110,12 @@ def test_confidence_rises_with_distinctiveness_and_constraint() -> None:
     assert confidence(GOOD, far, strength=30.0) == pytest.approx(float(np.prod(factors)))
 
 
-@pytest.mark.parametrize("radius", [0, 1, 3])
-def test_dilate_matches_scipy(radius: int) -> None:
-    mask = np.random.default_rng(2).random((57, 83)) < 0.02
+@pytest.mark.parametrize("radius", [0, 1, 3, 4, 13, 30, 41])
+@pytest.mark.parametrize("shape", [(57, 83), (3, 5), (1, 40)])
+def test_dilate_matches_scipy(radius: int, shape: tuple[int, int]) -> None:
+    # Radii of several doubling shifts, on grids narrower than the radius: what the
+    # edge cuts off must not be missed.
+    mask = np.random.default_rng(2).random(shape) < 0.05
     mask[0, 0] = mask[-1, -1] = True  # the edges too
     expected = ndimage.binary_dilation(mask, structure=np.ones((2 * radius + 1,) * 2, bool))
     assert np.array_equal(dilate(mask, radius), expected)
