@@ -227,8 +227,14 @@ def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle) ->
     return rows
 
 
+ALL_PAIRS = "all pairs"
+"""The group name of a summary row that pools every group of a suite."""
+
+
 def summary_table(rows: list[Row], methods: list[str]) -> list[str]:
     """Per group and method: right, accepted and right, accepted but wrong, errors, time.
+
+    A suite of several groups ends with a row per method over all its pairs.
 
     Times are wall clock; ``median CPU s`` is the process's CPU time, which
     exceeds the wall clock for a method that runs on several cores (OpenCV's
@@ -239,11 +245,15 @@ def summary_table(rows: list[Row], methods: list[str]) -> list[str]:
         "| median error (cells) | median s | p90 s | time / default's | median CPU s |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    groups = list(dict.fromkeys(r.group for r in rows if r.right != "unknown"))
-    for group in groups:
-        base = [r.seconds for r in rows if r.group == group and r.method == methods[0]]
+    known = [r for r in rows if r.right != "unknown"]
+    groups = list(dict.fromkeys(r.group for r in known))
+    # With several groups, a last row per method pools them: the suite as a whole.
+    pooled = [*groups, ALL_PAIRS] if len(groups) > 1 else groups
+    for group in pooled:
+        members = known if group == ALL_PAIRS else [r for r in known if r.group == group]
+        base = [r.seconds for r in members if r.method == methods[0]]
         for method in methods:
-            mine = [r for r in rows if r.group == group and r.method == method]
+            mine = [r for r in members if r.method == method]
             if not mine:
                 continue
             right = np.array([r.right == "yes" for r in mine])
