@@ -109,6 +109,8 @@ def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     """
     out = mask.copy()
     steps = _dilation_steps(radius)
+    # In-place ORs of overlapping views read the operand as it was before the
+    # operation (numpy copies it when the memory overlaps).
     for step in steps:
         out[:, step:] |= out[:, :-step]
         out[:, :-step] |= out[:, step:]
