@@ -13,17 +13,16 @@ from __future__ import annotations
 import os
 import signal
 import sys
-import threading
 from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
-from types import FrameType, ModuleType
+from types import ModuleType
 
 from tomosim.commands import CommandError, Parser, UsageError, one_line
 from tomosim.commands import explore as explore_command
 from tomosim.commands import merge as merge_command
 from tomosim.commands import review as review_command
 from tomosim.commands import sweep as sweep_command
-from tomosim.commands.stopping import Stopped
+from tomosim.commands.stopping import Stopped, stop_signals_handled
 
 COMMANDS: tuple[ModuleType, ...] = (
     explore_command,
@@ -64,10 +63,6 @@ def build_parser() -> Parser:
     return parser
 
 
-def _stop_on_sigterm(signum: int, frame: FrameType | None) -> None:
-    raise Stopped(signal.SIGTERM)
-
-
 def _silence_stdout() -> None:
     """Point standard output at the null device, so that exiting does not fail flushing it."""
     try:
@@ -81,11 +76,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line on ``argv`` (``sys.argv[1:]`` when None) and return the exit status."""
     parser = build_parser()
     arguments = list(sys.argv[1:] if argv is None else argv)
-    in_main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _stop_on_sigterm) if in_main_thread else None
     try:
         args = parser.parse_args(arguments)
-        return int(args.run(args))
+        with stop_signals_handled():
+            return int(args.run(args))
     except UsageError as exc:
         print(f"{PROG}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
@@ -101,9 +95,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader of our output went away (tomosim ... | head)
         _silence_stdout()
         return EXIT_FAILURE
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -336,7 +337,7 @@ def test_sigterm_stops_explore_cleanly(tmp_path: Path, capsys: pytest.CaptureFix
     wait_for_steps(record, process)
     process.send_signal(signal.SIGTERM)
     out, err = process.communicate(timeout=STOP_TIMEOUT_S)
-    assert process.returncode == 128 + signal.SIGTERM
+    assert process.returncode == 128 + signal.SIGTERM, err
     assert out == ""
     line = [line for line in err.splitlines() if line.startswith("tomosim:")]
     assert line == [line[0]] and "terminated (SIGTERM)" in line[0]
@@ -393,6 +394,53 @@ def test_a_signal_inside_a_compiled_call_stops_explore_cleanly(
     assert status == 128 + signal.SIGTERM and out == ""
     assert "terminated (SIGTERM)" in err and f"tomosim review {record}" in err
     verify(record)
+
+
+def signal_lost_at_step(at: int, monkeypatch: pytest.MonkeyPatch, then: Exception | None) -> None:
+    """Make step ``at`` of a run receive a real SIGTERM whose exception is swallowed.
+
+    As when the signal lands in a ctypes callback (numba compiling a kernel on a
+    first run), which prints "Exception ignored" and goes on; ``then`` is an
+    error the step raises afterwards, as an unfinished compilation might.
+    """
+    from tomosim.commands.stopping import Stopped
+    from tomosim.team.session import TeamSession
+
+    step = TeamSession.step
+    calls = []
+
+    def step_losing_a_signal(self: TeamSession, commands: object) -> object:
+        calls.append(1)
+        if len(calls) == at:
+            with contextlib.suppress(Stopped):
+                os.kill(os.getpid(), signal.SIGTERM)
+                for _ in range(1000):  # the handler runs between bytecodes, soon
+                    time.sleep(0.001)
+            assert len(calls) == at  # the handler ran and raised, and it was swallowed
+            if then is not None:
+                raise then
+        return step(self, commands)
+
+    monkeypatch.setattr(TeamSession, "step", step_losing_a_signal)
+
+
+@pytest.mark.parametrize("then", [None, ValueError("kernel left half compiled")])
+def test_a_signal_whose_exception_was_lost_still_stops_explore(
+    then: Exception | None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    signal_lost_at_step(5, monkeypatch, then)
+    record = tmp_path / "lost.rrd"
+    status, out, err = run(["explore", *SHORT_RUN, "--record", str(record)], capsys)
+    assert status == 128 + signal.SIGTERM and out == "", err
+    assert "terminated (SIGTERM)" in err and f"tomosim review {record}" in err
+    assert "error" not in err
+    verify(record)
+    status, report_text, _ = run(["review", str(record), "--json", "--no-png"], capsys)
+    report = json.loads(report_text)
+    assert report["status"].endswith("SIGTERM") and report["steps"] <= 5
 
 
 def test_other_system_errors_are_not_taken_for_signals() -> None:

@@ -32,7 +32,7 @@ from merging.api import DEFAULT_METHOD
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore_report import render_summary
 from tomosim.commands.progress import Progress
-from tomosim.commands.stopping import Stopped
+from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
@@ -236,26 +236,24 @@ def run(args: argparse.Namespace) -> int:
 
     def report(step: int, coverage: float) -> None:
         progress.update(step, f"team coverage {coverage:.3f}")
+        raise_if_stopped()
 
     try:
         with interrupts_unwrapped():
             metrics = run_episode(config, recorder=recorder, progress=report)
-    except KeyboardInterrupt as exc:
+    except BaseException as exc:
         progress.close()
-        stopped = Stopped.of(exc, kept(config.record, progress.done))
-        if recorder is not None:
-            recorder.log_interrupted(stopped.why)
-            _close_quietly(recorder)
-        raise stopped from None
-    except (ValueError, OSError, Image.DecompressionBombError) as exc:
-        progress.close()
-        if recorder is not None:
-            _close_quietly(recorder)
-        raise failure(exc, args.world) from exc
-    except BaseException:
-        progress.close()
+        interrupt = stop_behind(exc)
+        if interrupt is not None:
+            stopped = Stopped.of(interrupt, kept(config.record, progress.done))
+            if recorder is not None:
+                recorder.log_interrupted(stopped.why)
+                _close_quietly(recorder)
+            raise stopped from None
         if recorder is not None:
             _close_quietly(recorder)
+        if isinstance(exc, ValueError | OSError | Image.DecompressionBombError):
+            raise failure(exc, args.world) from exc
         raise
     progress.close(f"team coverage {metrics.coverage:.3f} after {metrics.steps} steps")
     print(json.dumps(metrics.as_dict(), indent=2) if args.json else render_summary(metrics))

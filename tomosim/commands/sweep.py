@@ -23,7 +23,7 @@ from typing import Any
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.explore import MAX_ROBOTS
 from tomosim.commands.progress import Progress
-from tomosim.commands.stopping import Stopped
+from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, run_sweep
@@ -172,10 +172,12 @@ def run(args: argparse.Namespace) -> int:
     def step(key: str, at: int, coverage: float) -> None:
         running[key] = (at, coverage)
         progress.update(progress.done, detail())
+        raise_if_stopped()
 
     def finished(row: dict[str, Any]) -> None:
         running.pop(row["key"], None)
         progress.update(progress.done + 1, detail())
+        raise_if_stopped()
 
     try:
         with interrupts_unwrapped():
@@ -184,20 +186,22 @@ def run(args: argparse.Namespace) -> int:
                 resume=args.resume, ray_address=args.ray_address, progress=finished,
                 on_start=start, on_step=step,
             )  # fmt: skip
-    except KeyboardInterrupt as exc:
+    except BaseException as exc:
         progress.close()
-        try:
-            rows = len(ResultsFile(args.out).rows())
-        except (OSError, ValueError):
-            rows = 0
-        raise Stopped.of(
-            exc,
-            f"{rows} of {len(episodes)} episodes are in {args.out}; run the same command "
-            "with --resume to run the rest",
-        ) from None
-    except (ValueError, ImportError, OSError) as exc:
-        progress.close()
-        raise CommandError(one_line(exc)) from exc
+        interrupt = stop_behind(exc)
+        if interrupt is not None:
+            try:
+                rows = len(ResultsFile(args.out).rows())
+            except (OSError, ValueError):
+                rows = 0
+            raise Stopped.of(
+                interrupt,
+                f"{rows} of {len(episodes)} episodes are in {args.out}; run the same command "
+                "with --resume to run the rest",
+            ) from None
+        if isinstance(exc, ValueError | ImportError | OSError):
+            raise CommandError(one_line(exc)) from exc
+        raise
     progress.close(f"{outcome.ran} run, {outcome.skipped} already done")
     print(
         f"{outcome.ran} episodes run, {outcome.skipped} already done, "
