@@ -207,3 +207,67 @@ def test_a_searched_placement_starts_a_track_only_when_it_fits_closely(
             "the search's placement fits too loosely to start tracking (plain fit 0.70, "
             "below 0.80); no new walls since the last global search"
         )
+
+
+def test_a_track_is_kept_at_a_confidence_a_new_placement_would_not_reach(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.params import DEFAULT_PARAMS
+    from merging.result import MergeResult
+    from tomosim.team import tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    placed[0, 2] = 10.0
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
+    confidence = {"now": 0.9}
+
+    def verified(map1: object, map2: object, start: object, *, params: object) -> MergeResult:
+        # The verdict track_transform would give at ``params``' threshold.
+        accept = params.confidence.accept  # type: ignore[attr-defined]
+        value = confidence["now"]
+        return MergeResult(
+            placed, value, value >= accept, TRACKED, placed, evidence={"quality": 0.9}
+        )
+
+    monkeypatch.setattr(tracking_module, "track_transform", verified)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(worker=False, rng=0)
+    estimator(0, 1, grid, grid)  # submits the search
+    assert estimator(0, 1, grid, grid).accepted  # collects it: the track starts at 0.9
+    between = (tracking_module.KEEP_CONFIDENCE + DEFAULT_PARAMS.confidence.accept) / 2
+    confidence["now"] = between
+    assert estimator(0, 1, grid, grid).accepted  # the track is kept
+    confidence["now"] = tracking_module.KEEP_CONFIDENCE - 0.01
+    lost = estimator(0, 1, grid, grid)
+    assert not lost.accepted  # and dropped below the keeping threshold
+    assert "which was not accepted" not in lost.reason  # the search was; the track is lost
+
+
+def test_a_new_placement_needs_the_acceptance_threshold_to_start_a_track(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.params import DEFAULT_PARAMS
+    from merging.result import MergeResult
+    from tomosim.team import tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
+    between = (tracking_module.KEEP_CONFIDENCE + DEFAULT_PARAMS.confidence.accept) / 2
+
+    def verified(map1: object, map2: object, start: object, *, params: object) -> MergeResult:
+        accept = params.confidence.accept  # type: ignore[attr-defined]
+        return MergeResult(
+            placed, between, between >= accept, TRACKED, placed, evidence={"quality": 0.9}
+        )
+
+    monkeypatch.setattr(tracking_module, "track_transform", verified)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(worker=False, rng=0)
+    estimator(0, 1, grid, grid)
+    assert not estimator(0, 1, grid, grid).accepted
