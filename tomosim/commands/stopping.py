@@ -10,7 +10,7 @@ from C (numba compiling a kernel on a first run calls back into Python through
 ctypes), it is printed as "Exception ignored" and the run goes on. So
 :func:`stop_signals_handled` also remembers each signal (and keeps such a
 lost stop from printing a traceback), and commands call
-:func:`raise_if_stopped` at every step and consult :func:`stop_received` when
+:func:`raise_if_stopped` at every step and consult :func:`stop_behind` when
 they fail: a stop asked for is a stop, wherever its exception went.
 """
 
