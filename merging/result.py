@@ -63,7 +63,9 @@ class MergeResult:
         ``shared_open_cells``, ``strength``, ``margin`` and
         ``runner_up_distance_cells`` against the best different placement,
         the factors ``close_*`` and, when the close fit fails, ``robust_*``
-        and ``tolerant_*``; for a placement a way
+        and ``tolerant_*`` (only the free ones, and the strength a refusal's
+        reason may need, when one of them already keeps the robust way below
+        the close fit; ``robust_confidence`` then is absent); for a placement a way
         would vouch for, ``mirror_share`` and ``close_mirror`` or
         ``tolerant_mirror_share`` and ``robust_mirror`` against map 2's
         mirror image; see :mod:`merging.verdict` and :mod:`merging.mirror`).

@@ -110,6 +110,40 @@ ROBUST_FACTORS = (
 """Names of the factors of :func:`robust_confidence`, in the order of ``RobustParams.widths``."""
 
 
+def robust_factors(
+    measures: dict[str, float], params: RobustParams = DEFAULT_ROBUST
+) -> dict[str, float]:
+    """The factors of :func:`robust_confidence` for the measures given.
+
+    ``measures`` may hold any of :data:`ROBUST_FACTORS`; each one present
+    gets its factor, the logistic of the measure against its threshold: in
+    ``[0, 1]`` and one half at the threshold (``margin`` is the margin over
+    the best different placement; ``agreeing`` and ``strength`` are weighed
+    in log10).
+    """
+    thresholds = {
+        "margin": params.margin,
+        "agreeing": np.log10(params.agreeing),
+        "agreement": params.agreement,
+        "quality": params.quality,
+        "open_share": params.open_share,
+        "open_consistency": params.open_consistency,
+        "strength": np.log10(params.strength),
+    }
+    widths = dict(zip(ROBUST_FACTORS, params.widths, strict=True))
+    factors: dict[str, float] = {}
+    for name in ROBUST_FACTORS:
+        if name not in measures:
+            continue
+        value = measures[name]
+        if name == "agreeing":
+            value = np.log10(max(value, 1.0))
+        elif name == "strength":
+            value = np.log10(max(value, 1e-3))
+        factors[name] = float(1.0 / (1.0 + np.exp(-(value - thresholds[name]) / widths[name])))
+    return factors
+
+
 def robust_confidence(
     measures: dict[str, float], params: RobustParams = DEFAULT_ROBUST
 ) -> tuple[float, dict[str, float]]:
@@ -128,19 +162,10 @@ def robust_confidence(
         The weakest of the factors: at least one half exactly when every
         measure reaches its threshold.
     factors : dict
-        Each factor, in ``[0, 1]``.
+        Each factor, in ``[0, 1]`` (:func:`robust_factors`).
     """
-    thresholds = {
-        "margin": (measures["margin"], params.margin),
-        "agreeing": (np.log10(max(measures["agreeing"], 1.0)), np.log10(params.agreeing)),
-        "agreement": (measures["agreement"], params.agreement),
-        "quality": (measures["quality"], params.quality),
-        "open_share": (measures["open_share"], params.open_share),
-        "open_consistency": (measures["open_consistency"], params.open_consistency),
-        "strength": (np.log10(max(measures["strength"], 1e-3)), np.log10(params.strength)),
-    }
-    factors = {
-        name: float(1.0 / (1.0 + np.exp(-(value - threshold) / width)))
-        for (name, (value, threshold)), width in zip(thresholds.items(), params.widths, strict=True)
-    }
+    missing = [name for name in ROBUST_FACTORS if name not in measures]
+    if missing:
+        raise KeyError(f"robust_confidence needs every measure; missing {missing}")
+    factors = robust_factors(measures, params)
     return min(factors.values()), factors

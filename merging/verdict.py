@@ -36,7 +36,13 @@ from numpy.typing import NDArray
 from merging.mirror import MirrorCandidates, mirror_share
 from merging.params import TomographicParams
 from merging.refine import SmoothedMap, constraint_strength
-from merging.robust import open_cells, open_consistency, robust_confidence, tolerant_fit
+from merging.robust import (
+    open_cells,
+    open_consistency,
+    robust_confidence,
+    robust_factors,
+    tolerant_fit,
+)
 from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
 from merging.verify import PreparedMap, Verification, confidence_factors, verify
 
@@ -148,9 +154,12 @@ def judge(
         close *= chiral
         evidence["close_confidence"] = close
     robust = 0.0
-    robust_factors: dict[str, float] = {}
+    robust_scores: dict[str, float] = {}
     if close < accept:
-        robust, robust_factors = _robust(first, second, smoothed, best, check, evidence, params)
+        bounded, robust_scores = _robust(
+            first, second, smoothed, best, check, evidence, params, at_most=close
+        )
+        robust = 0.0 if bounded is None else bounded
         vouched = vouched or robust >= accept
         if robust >= accept and twins.available:
             share = mirror_share(
@@ -163,10 +172,11 @@ def judge(
                 params=params.verify,
             )
             evidence["tolerant_mirror_share"] = share
-            robust_factors["mirror"] = _mirror_factor(share, params)
-            robust = min(robust, robust_factors["mirror"])
-        evidence["robust_confidence"] = robust
-        evidence.update({f"robust_{name}": value for name, value in robust_factors.items()})
+            robust_scores["mirror"] = _mirror_factor(share, params)
+            robust = min(robust, robust_scores["mirror"])
+        if bounded is not None:
+            evidence["robust_confidence"] = robust
+        evidence.update({f"robust_{name}": value for name, value in robust_scores.items()})
     value = max(close, robust)
     accepted = value >= accept
     if accepted:
@@ -175,7 +185,7 @@ def judge(
         # Either way vouched until held against the mirror image: that is why.
         reason = MIRROR_REASON
     else:
-        reason = refusal_reason(factors, robust_factors, evidence)
+        reason = refusal_reason(factors, robust_scores, evidence)
     return Verdict(value, accepted, reason, evidence)
 
 
@@ -218,29 +228,48 @@ def _robust(
     check: Verification,
     evidence: dict[str, float],
     params: TomographicParams,
-) -> tuple[float, dict[str, float]]:
-    """The robust confidence of ``best``; adds its measures to ``evidence``."""
+    *,
+    at_most: float,
+) -> tuple[float | None, dict[str, float]]:
+    """The robust confidence of ``best`` and its factors; adds its measures to ``evidence``.
+
+    The confidence is the weakest factor, so when one of the three that cost
+    nothing (the margin, the agreeing walls, the shared open space) is
+    already at most ``at_most`` (the close fit's confidence), the robust way
+    can neither vouch nor raise the confidence: the costly measures are left
+    out and the confidence is None. The constraint strength is still
+    measured when the margin passes, as the refusal's reason may rest on it
+    (:func:`refusal_reason`).
+    """
     robust = params.robust
-    agreement, quality = tolerant_fit(
-        first, second, best, tolerance=robust.tolerance, params=params.verify
-    )
     smaller = min(open_cells(first), open_cells(second))
-    strength = evidence["strength"]
-    for width in robust.strength_widths:
-        wider = replace(params.gauss_newton, curvature_sigma=width, curvature_step=width)
-        wide = constraint_strength(smoothed, second, best, local=True, params=wider)
-        strength = max(strength, wide * width**2)
     measures = {
         # With no different placement at all, nothing competes: the margin passes.
         "margin": evidence.get("margin", robust.margin + 1.0),
         "agreeing": check.agreeing,
-        "agreement": agreement,
-        "quality": quality,
         "open_share": check.shared_space / (2.0 * smaller) if smaller > 0 else 0.0,
-        "open_consistency": open_consistency(first, second, best),
-        "strength": strength,
     }
+    cheap = robust_factors(measures, robust)
+    settled = min(cheap.values()) <= at_most
+    if not settled or cheap["margin"] >= 0.5:
+        strength = evidence["strength"]
+        for width in robust.strength_widths:
+            wider = replace(params.gauss_newton, curvature_sigma=width, curvature_step=width)
+            wide = constraint_strength(smoothed, second, best, local=True, params=wider)
+            strength = max(strength, wide * width**2)
+        measures["strength"] = strength
+    if not settled:
+        agreement, quality = tolerant_fit(
+            first, second, best, tolerance=robust.tolerance, params=params.verify
+        )
+        measures.update(
+            agreement=agreement,
+            quality=quality,
+            open_consistency=open_consistency(first, second, best),
+        )
     evidence.update({f"tolerant_{k}": v for k, v in measures.items() if k != "margin"})
+    if settled:
+        return None, robust_factors(measures, robust)
     return robust_confidence(measures, robust)
 
 

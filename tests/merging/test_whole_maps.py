@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import merging
+from merging import verdict
 from merging.metrics import transform_error
 from merging.params import DEFAULT_STAGES, RobustParams, TomographicParams
 from merging.resample import coarsen_cells, scale_matrix
@@ -197,3 +198,32 @@ def test_robust_confidence_is_its_weakest_factor() -> None:
     for name, low in (("margin", 0.1), ("agreeing", 3000.0), ("open_consistency", 0.85)):
         value, factors = robust_confidence({**passing, name: low}, params)
         assert value < 0.5 and value == factors[name]
+
+
+@pytest.mark.parametrize(("seed", "shared"), [(7, 20), (8, 10)])
+def test_robust_measures_left_out_only_when_they_cannot_matter(
+    monkeypatch: pytest.MonkeyPatch, seed: int, shared: int
+) -> None:
+    # Two halves of a building sharing a strip: the close fit fails and a free
+    # factor of the robust way is already below it, so its costly measures are
+    # skipped; measured in full, they give the same confidence and reason.
+    grid = synthetic_building(seed)
+    half = grid.shape[1] // 2
+    first, second = grid[:, : half + shared], grid[:, half - shared :]
+    quick = merging.estimate_transform(first, second)
+    assert "robust_confidence" not in quick.evidence
+    assert "tolerant_open_consistency" not in quick.evidence
+    measured_in_full = verdict._robust
+
+    def in_full(*args, **kwargs):
+        return measured_in_full(*args, **{**kwargs, "at_most": -1.0})
+
+    monkeypatch.setattr(verdict, "_robust", in_full)
+    full = merging.estimate_transform(first, second)
+    assert full.evidence["robust_confidence"] <= full.evidence["close_confidence"]
+    assert (quick.confidence, quick.reason, quick.accepted) == (
+        full.confidence,
+        full.reason,
+        full.accepted,
+    )
+    assert np.array_equal(quick.matrix, full.matrix)
