@@ -124,8 +124,15 @@ def translation_peaks(
     *,
     count: int,
     suppression: int = DEFAULT_TRANSLATION.peak_suppression,
-) -> list[tuple[NDArray[np.float64], float]]:
-    """Best translations of ``second``, rotated by ``theta``, onto ``first``.
+) -> tuple[list[tuple[NDArray[np.float64], float]], list[tuple[NDArray[np.float64], float]]]:
+    """Best translations of ``second``, rotated by ``theta`` and by ``theta + π``, onto ``first``.
+
+    The rotation's angular spectra cannot tell a turn from its half-turn
+    twin (:mod:`merging.angular`), so both are searched, from one transform
+    of the rotated map: turned by a further half turn it is the same image
+    mirrored through its centre, whose correlation with map 1 is the
+    *convolution* of map 1's target with the unmirrored image, shifted by the
+    image's extent. Both surfaces come from one forward transform of map 2.
 
     Parameters
     ----------
@@ -134,32 +141,69 @@ def translation_peaks(
     theta : float
         Rotation (radians, counter-clockwise) applied to map 2's cells.
     count : int
-        Peaks to return.
+        Peaks to return per rotation.
     suppression : int
         Coarse cells around a peak within which weaker peaks are dropped.
 
     Returns
     -------
-    list of (matrix, score)
-        ``matrix`` takes map 2's full-resolution cells to map 1's; ``score``
-        is the target mass collected per wall block of map 2, best first.
+    (list of (matrix, score), list of (matrix, score))
+        For ``theta`` and for ``theta + π``: ``matrix`` takes map 2's
+        full-resolution cells to map 1's; ``score`` is the target mass
+        collected per wall block of map 2, best first.
     """
-    factor = first.factor
     rotated = second.points @ rigid_matrix(0.0, 0.0, theta)[:2, :2].T
     low = np.floor(rotated.min(axis=0))
     cells = np.rint(rotated - low).astype(np.intp)
-    shape_b = (int(cells[:, 1].max()) + 1, int(cells[:, 0].max()) + 1)
+    extent = cells.max(axis=0)  # (x, y) of the image's last column and row
+    shape_b = (int(extent[1]) + 1, int(extent[0]) + 1)
     moving = np.zeros(shape_b, dtype=np.float32)
     moving[cells[:, 1], cells[:, 0]] = 1.0
     rows_a, cols_a = first.target.shape
     size = (fft.next_fast_len(rows_a + shape_b[0]), fft.next_fast_len(cols_a + shape_b[1]))
-    spectrum = first.target_spectrum(size) * np.conj(padded_rfft2(moving, size))
-    surface = fft.irfft2(spectrum, s=size)
+    target = first.target_spectrum(size)
+    forward = padded_rfft2(moving, size)
+    mass = float(moving.sum())
+    correlation = fft.irfft2(target * np.conj(forward), s=size)
+    # Turned a further half turn, map 2's points lie at -rotated - low_twin and
+    # cell c of the image becomes extent - c: correlating with that mirrored
+    # image at shift s is convolving with this one at shift s + extent.
+    convolution = fft.irfft2(target * forward, s=size)
+    mirrored = np.roll(convolution, (-int(extent[1]), -int(extent[0])), axis=(0, 1))
+    low_twin = -(low + extent)
+    return (
+        _peaks(correlation, (rows_a, cols_a), shape_b, mass, low, theta, first.factor,
+               count, suppression),
+        _peaks(mirrored, (rows_a, cols_a), shape_b, mass, low_twin, theta + np.pi,
+               first.factor, count, suppression),
+    )  # fmt: skip
+
+
+def _peaks(
+    surface: NDArray[np.floating],
+    shape_a: tuple[int, int],
+    shape_b: tuple[int, int],
+    mass: float,
+    low: NDArray[np.float64],
+    theta: float,
+    factor: int,
+    count: int,
+    suppression: int,
+) -> list[tuple[NDArray[np.float64], float]]:
+    """The ``count`` strongest shifts of a correlation ``surface`` (changed in place).
+
+    ``surface[i, j]`` is the target mass collected by map 2's image (of
+    ``shape_b``, holding ``mass`` wall blocks, its cell ``(0, 0)`` at ``low``
+    of the rotated coarse frame) shifted by ``(j, i)`` blocks onto map 1's
+    (of ``shape_a``); indices past map 1 stand for negative shifts. Scores
+    are per wall block.
+    """
+    size = surface.shape
+    rows_a, cols_a = shape_a
     # Index i means shift i (i < rows_a) or i - size (a negative shift); the rows and
     # columns between are shifts that lay the maps apart.
     surface[rows_a : size[0] - shape_b[0] + 1, :] = -np.inf
     surface[:, cols_a : size[1] - shape_b[1] + 1] = -np.inf
-    mass = float(moving.sum())
     scale = np.array([[factor, 0, (factor - 1) / 2], [0, factor, (factor - 1) / 2], [0, 0, 1]])
     to_coarse = np.linalg.inv(scale)
     peaks: list[tuple[NDArray[np.float64], float]] = []

@@ -202,7 +202,11 @@ def _rms_between(a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray
 
 
 def _rotation_hypotheses(maps: _Maps, factor: int) -> tuple[list[float], CoarseMap, CoarseMap]:
-    """Rotation hypotheses (radians, for map 2 -> map 1), from angular spectra."""
+    """Rotation hypotheses (radians, for map 2 -> map 1), from angular spectra.
+
+    Each stands for itself and its half-turn twin, which the angular spectra
+    cannot tell apart (the translation search tries both).
+    """
     params = maps.params
     coarse1 = maps.first_coarse(factor)
     coarse2 = coarsen(maps.second, factor, params=params.translation)
@@ -216,30 +220,29 @@ def _rotation_hypotheses(maps: _Maps, factor: int) -> tuple[list[float], CoarseM
         angle_step_deg=rotation.angle_step_deg,
         separation_deg=rotation.peak_separation_deg,
     )
-    thetas: list[float] = []
-    for angle_deg, _ in peaks:
-        # Map 2 shows map 1's structure turned by +angle; turning it back is -angle.
-        theta = -np.deg2rad(angle_deg)
-        thetas.extend([theta, theta + np.pi])
+    # Map 2 shows map 1's structure turned by +angle; turning it back is -angle.
+    thetas = [-float(np.deg2rad(angle_deg)) for angle_deg, _ in peaks]
     return thetas, coarse1, coarse2
 
 
 def _translation_hypotheses(
     coarse1: CoarseMap, coarse2: CoarseMap, thetas: list[float], params: TomographicParams
 ) -> tuple[list[NDArray[np.float64]], list[float]]:
-    """For each rotation, the strongest translations and their correlation values."""
+    """For each rotation and its half-turn twin, the strongest translations and their values."""
     candidates: list[NDArray[np.float64]] = []
     correlation: list[float] = []
     for theta in thetas:
-        for matrix, value in translation_peaks(
+        turns = translation_peaks(
             coarse1,
             coarse2,
             theta,
             count=params.translation.peaks,
             suppression=params.translation.peak_suppression,
-        ):
-            candidates.append(matrix)
-            correlation.append(value)
+        )
+        for peaks in turns:
+            for matrix, value in peaks:
+                candidates.append(matrix)
+                correlation.append(value)
     return candidates, correlation
 
 

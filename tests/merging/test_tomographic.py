@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 
 import merging
+from merging.correlate import coarsen, translation_peaks
 from merging.metrics import transform_error
 from merging.pairs import cut_window_pairs
 from merging.transforms import matrix_to_pose, rigid_matrix
+from merging.verify import prepare_map
 from merging.warp import warp_cells
 
 from .conftest import synthetic_building
@@ -120,3 +122,18 @@ def test_real_map_turned_by_known_angles(maps_folder) -> None:
         result = merging.estimate_transform(whole, map2)
         assert transform_error(result.matrix, truth, map2)[0] < RIGHT_CELLS
         assert result.accepted
+
+
+@pytest.mark.parametrize("degrees", [0.0, 17.0, 90.0, 133.0, 251.0])
+def test_half_turn_twin_from_one_transform(building: np.ndarray, degrees: float) -> None:
+    # The twin's peaks come from a convolution with the unturned image; they must be
+    # the peaks a correlation with the image turned by the further half turn finds.
+    first = coarsen(prepare_map(building[:, :200]), 3)
+    second = coarsen(prepare_map(building[40:, 120:]), 3)
+    theta = np.deg2rad(degrees)
+    _, twin = translation_peaks(first, second, theta, count=3)
+    direct, _ = translation_peaks(first, second, theta + np.pi, count=3)
+    assert len(twin) == len(direct) == 3
+    for (twin_matrix, twin_score), (matrix, score) in zip(twin, direct, strict=True):
+        assert np.allclose(twin_matrix, matrix, atol=1e-9)
+        assert twin_score == pytest.approx(score, abs=1e-5)
