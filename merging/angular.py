@@ -64,24 +64,40 @@ def angular_spectrum(
     rows, cols = image.shape
     if rows > size or cols > size:
         raise ValueError(f"image of shape {image.shape} does not fit an FFT of size {size}")
-    padded = np.zeros((size, size), dtype=np.float32)
-    padded[:rows, :cols] = image
-    magnitude = np.abs(fft.fftshift(fft.fft2(padded)))
+    magnitude = _upper_half_magnitude(np.asarray(image, dtype=np.float32), size)
     step = params.angle_step_deg
     n_angles = round(180.0 / step)
     alphas = np.deg2rad(np.arange(n_angles) * step)
     top = int(size // 2 * params.max_frequency_fraction)
     radii = np.arange(params.min_frequency, top, dtype=np.float64)
     centre = size // 2
-    # Sample |F| at (kx, ky) = k (cos α, sin α); array axes are (ky, kx).
+    # Sample |F| at (kx, ky) = k (cos α, sin α), ky >= 0 for α in [0°, 180°); the
+    # array's axes are (ky, kx + centre).
     kx = centre + np.outer(np.cos(alphas), radii)
-    ky = centre + np.outer(np.sin(alphas), radii)
+    ky = np.outer(np.sin(alphas), radii)
     samples = _bilinear(magnitude, ky.ravel(), kx.ravel())
     values = np.log1p(samples.reshape(n_angles, len(radii)))
     values -= values.mean(axis=0, keepdims=True)
     norms = np.linalg.norm(values, axis=0, keepdims=True)
     values /= np.where(norms > 0, norms, 1.0)
     return AngularSpectrum(values.astype(np.float64), step)
+
+
+def _upper_half_magnitude(image: NDArray[np.float32], size: int) -> NDArray[np.float32]:
+    """``|F|`` of ``image`` zero-padded to ``size x size``, for ``ky >= 0`` only.
+
+    Row ``ky`` holds vertical frequency ``ky`` (0 to ``size // 2``); column
+    ``kx + size // 2`` holds horizontal frequency ``kx``. The spectrum of a
+    real image is symmetric through the origin, so the half the angular
+    spectrum samples (angles 0-180°) is all there is: the transform is real
+    along the columns, which halves it, and only the image's columns are
+    transformed there (the padding's transform to zeros).
+    """
+    columns = fft.rfft(image, n=size, axis=0)
+    frame = np.zeros((columns.shape[0], size), dtype=columns.dtype)
+    frame[:, : image.shape[1]] = columns
+    half = fft.fft(frame, axis=1, overwrite_x=True)
+    return np.abs(fft.fftshift(half, axes=1))
 
 
 @numba.njit(cache=True, nogil=True)

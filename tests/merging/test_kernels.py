@@ -9,7 +9,13 @@ import pytest
 from scipy import ndimage
 
 import merging
-from merging.angular import _bilinear, angular_spectrum, rotation_correlation, rotation_peaks
+from merging.angular import (
+    _bilinear,
+    _upper_half_magnitude,
+    angular_spectrum,
+    rotation_correlation,
+    rotation_peaks,
+)
 from merging.blur import blur_walls
 from merging.grid import free_mask, occupied_mask
 from merging.params import TomographicParams
@@ -45,6 +51,17 @@ def test_translation_leaves_the_angular_spectrum_unchanged(building: np.ndarray)
     first = angular_spectrum(walls_image(building), size=SPECTRUM_SIZE)
     second = angular_spectrum(walls_image(moved), size=SPECTRUM_SIZE)
     assert np.allclose(first.values, second.values, atol=1e-4)
+
+
+@pytest.mark.parametrize("shape", [(157, 150), (64, 200), (256, 13)])
+def test_upper_half_magnitude_is_that_of_the_full_transform(shape) -> None:
+    image = (np.random.default_rng(4).random(shape) < 0.1).astype(np.float32)
+    padded = np.zeros((256, 256), dtype=np.float32)
+    padded[: shape[0], : shape[1]] = image
+    full = np.abs(np.fft.fftshift(np.fft.fft2(padded)))
+    half = _upper_half_magnitude(image, 256)
+    assert half.shape == (129, 256)
+    assert np.allclose(half[:128], full[128:], rtol=1e-4, atol=1e-3)  # Nyquist row aside
 
 
 @pytest.mark.parametrize("degrees", [17.0, 63.0, 121.0])
