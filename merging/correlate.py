@@ -160,7 +160,13 @@ def translation_peaks(
     moving = np.zeros(shape_b, dtype=np.float32)
     moving[cells[:, 1], cells[:, 0]] = 1.0
     rows_a, cols_a = first.target.shape
-    size = (fft.next_fast_len(rows_a + shape_b[0]), fft.next_fast_len(cols_a + shape_b[1]))
+    # Sizes with no prime factor above 5: pocketfft's real transforms are slow on
+    # factors of 7 and 11 (which next_fast_len allows by default), so a size of
+    # 240 x 270 transforms faster than 240 x 264.
+    size = (
+        fft.next_fast_len(rows_a + shape_b[0], real=True),
+        fft.next_fast_len(cols_a + shape_b[1], real=True),
+    )
     target = first.target_spectrum(size)
     forward = padded_rfft2(moving, size)
     mass = float(moving.sum())
