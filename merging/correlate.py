@@ -17,6 +17,7 @@ space, so a shift that lays map 2's walls across map 1's open rooms loses.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -210,8 +211,7 @@ def _peaks(
     # columns between are shifts that lay the maps apart.
     surface[rows_a : size[0] - shape_b[0] + 1, :] = -np.inf
     surface[:, cols_a : size[1] - shape_b[1] + 1] = -np.inf
-    scale = np.array([[factor, 0, (factor - 1) / 2], [0, factor, (factor - 1) / 2], [0, 0, 1]])
-    to_coarse = np.linalg.inv(scale)
+    scale, to_coarse = _block_frames(factor)
     peaks: list[tuple[NDArray[np.float64], float]] = []
     for _ in range(count):
         flat = int(np.argmax(surface))
@@ -223,7 +223,29 @@ def _peaks(
         shift_x = col if col < cols_a else col - size[1]
         coarse = rigid_matrix(shift_x - low[0], shift_y - low[1], theta)
         peaks.append((scale @ coarse @ to_coarse, value / mass))
-        rows_idx = np.arange(row - suppression, row + suppression + 1) % size[0]
-        cols_idx = np.arange(col - suppression, col + suppression + 1) % size[1]
-        surface[np.ix_(rows_idx, cols_idx)] = -np.inf
+        _suppress(surface, row, col, suppression)
     return peaks
+
+
+@functools.cache
+def _block_frames(factor: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The matrix taking block coordinates to cell coordinates (a block's centre to
+    its middle cell) and its inverse, for blocks of ``factor`` cells."""
+    offset = (factor - 1) / 2
+    scale = np.array([[factor, 0, offset], [0, factor, offset], [0, 0, 1]])
+    inverse = np.linalg.inv(scale)
+    for frame in (scale, inverse):
+        frame.setflags(write=False)  # shared by every later search
+    return scale, inverse
+
+
+def _suppress(surface: NDArray[np.floating], row: int, col: int, reach: int) -> None:
+    """Set ``surface`` to -inf within ``reach`` of ``(row, col)``, wrapping around its edges
+    (the surface is circular)."""
+    rows, cols = surface.shape
+    if reach <= row < rows - reach and reach <= col < cols - reach:
+        surface[row - reach : row + reach + 1, col - reach : col + reach + 1] = -np.inf
+        return
+    rows_idx = np.arange(row - reach, row + reach + 1) % rows
+    cols_idx = np.arange(col - reach, col + reach + 1) % cols
+    surface[np.ix_(rows_idx, cols_idx)] = -np.inf

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import merging
-from merging.correlate import coarsen, translation_peaks
+from merging.correlate import _suppress, coarsen, translation_peaks
 from merging.metrics import transform_error
 from merging.pairs import cut_window_pairs
 from merging.transforms import matrix_to_pose, rigid_matrix
@@ -137,3 +137,14 @@ def test_half_turn_twin_from_one_transform(building: np.ndarray, degrees: float)
     for (twin_matrix, twin_score), (matrix, score) in zip(twin, direct, strict=True):
         assert np.allclose(twin_matrix, matrix, atol=1e-9)
         assert twin_score == pytest.approx(score, abs=1e-5)
+
+
+@pytest.mark.parametrize(("row", "col"), [(5, 7), (0, 0), (1, 18), (9, 19), (4, 2)])
+def test_peak_suppression_wraps_around_the_surface(row: int, col: int) -> None:
+    surface = np.zeros((10, 20), dtype=np.float32)
+    _suppress(surface, row, col, 2)
+    expected = np.zeros_like(surface)
+    rows = np.arange(row - 2, row + 3) % 10
+    cols = np.arange(col - 2, col + 3) % 20
+    expected[np.ix_(rows, cols)] = -np.inf
+    assert np.array_equal(surface, expected)
