@@ -91,7 +91,7 @@ def _upper_half_magnitude(image: NDArray[np.float32], size: int) -> NDArray[np.f
     real image is symmetric through the origin, so the half the angular
     spectrum samples (angles 0-180°) is all there is: the transform is real
     along the columns, which halves it, and only the image's columns are
-    transformed there (the padding's transform to zeros).
+    transformed there (the padding's columns transform to zeros).
     """
     columns = fft.rfft(image, n=size, axis=0)
     frame = np.zeros((columns.shape[0], size), dtype=columns.dtype)

@@ -172,9 +172,9 @@ def translation_peaks(
     forward = padded_rfft2(moving, size)
     mass = float(moving.sum())
     correlation = fft.irfft2(target * np.conj(forward), s=size)
-    # Turned a further half turn, map 2's points lie at -rotated - low_twin and
-    # cell c of the image becomes extent - c: correlating with that mirrored
-    # image at shift s is convolving with this one at shift s + extent.
+    # Turned a further half turn, a point in cell c of this image lies at -rotated,
+    # in cell -rotated - low_twin = extent - c of the twin's image: correlating with
+    # that mirrored image at shift s is convolving with this one at s + extent.
     convolution = fft.irfft2(target * forward, s=size)
     mirrored = np.roll(convolution, (-int(extent[1]), -int(extent[0])), axis=(0, 1))
     low_twin = -(low + extent)
