@@ -61,6 +61,10 @@ ACCEPT_PAIR_CONFIDENCE = 1.0
 """The node's ``estimation_confidence`` default: pairs below it are not merged."""
 FINDERS = ("akaze", "orb")
 """Feature types the node offers without the non-free OpenCV modules."""
+MIN_IMAGE_SIDE = 2
+"""Cells a side an image needs before OpenCV's feature pyramids are built: on a grid one
+cell wide ORB fails an assertion in its resize and AKAZE corrupts the heap (the process
+aborts), where a wider one yields no keypoints and a clean refusal."""
 
 
 def _cv2() -> Any:
@@ -94,6 +98,15 @@ def ros_merge(
     cv2.setRNGSeed(int(rng.integers(0, 2**31 - 1)))
     name = f"ros_{finder}"
     timings: dict[str, float] = {}
+    narrowest = min(*cells1.shape, *cells2.shape)
+    if narrowest < MIN_IMAGE_SIDE:
+        shapes = f"{cells1.shape[0]} x {cells1.shape[1]} and {cells2.shape[0]} x {cells2.shape[1]}"
+        return refusal(
+            name,
+            f"{name}: maps of {shapes} cells; OpenCV's features need images at least "
+            f"{MIN_IMAGE_SIDE} cells a side",
+            timings,
+        )
     clock = time.perf_counter()
     detector = cv2.AKAZE_create() if finder == "akaze" else cv2.ORB_create()
     images = [np.ascontiguousarray(cells.view(np.uint8)) for cells in (cells1, cells2)]

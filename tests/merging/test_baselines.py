@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -262,3 +265,22 @@ def test_ros_pipeline_without_opencv_names_the_install(monkeypatch) -> None:
     grid = synthetic_building(4)
     with pytest.raises(ImportError, match=r"tomosim\[opencv\]"):
         merging.estimate_transform(grid, grid, method="ros_akaze")
+
+
+@pytest.mark.parametrize("method", ROS_PIPELINES)
+@pytest.mark.parametrize("shape", [(1, 300), (300, 1)])
+def test_ros_pipeline_refuses_a_grid_one_cell_wide(opencv, method: str, shape) -> None:
+    # OpenCV's AKAZE corrupts the heap on such an image (the process aborts), so the
+    # call runs in a child process: a regression fails this test, not the whole run.
+    script = (
+        "import numpy as np, merging\n"
+        f"thin = np.full({shape}, 100, np.int8); thin.reshape(-1)[::3] = 0\n"
+        "wide = np.zeros((60, 60), np.int8); wide[::7, :] = 100\n"
+        "for pair in ((wide, thin), (thin, wide)):\n"
+        f"    result = merging.estimate_transform(*pair, method={method!r}, rng=0)\n"
+        "    assert not result.accepted, result\n"
+        "    print(result.reason)\n"
+    )
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "at least 2 cells a side" in run.stdout
