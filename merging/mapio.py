@@ -197,6 +197,8 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
     ------
     FileNotFoundError
         If the YAML's folder does not exist.
+    ValueError
+        If ``yaml_path`` ends in the image's suffix (the image would overwrite it).
     OSError
         If a file cannot be written (nothing is replaced then).
     """
@@ -208,6 +210,11 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
     if not path.parent.is_dir():
         raise FileNotFoundError(f"cannot write {path}: folder {path.parent} does not exist")
     image_path = path.with_suffix(f".{image_format}")
+    if image_path == path:
+        raise ValueError(
+            f"yaml_path {str(path)!r} is where the {image_format} image would go (the image "
+            "takes the YAML's name with its own suffix); give the YAML's path, ending in .yaml"
+        )
     pixels = np.full(grid.shape, PIXEL_UNKNOWN, dtype=np.uint8)
     pixels[grid.free()] = PIXEL_FREE
     pixels[grid.occupied()] = PIXEL_OCCUPIED

@@ -228,3 +228,13 @@ def test_save_needs_an_existing_folder(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match="does not exist"):
         save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), tmp_path / "no" / "m.yaml")
     assert not (tmp_path / "no").exists()
+
+
+@pytest.mark.parametrize("image_format", ["pgm", "png"])
+def test_save_refuses_a_yaml_path_named_like_its_image(tmp_path: Path, image_format: str) -> None:
+    target = tmp_path / f"m.{image_format}"
+    target.write_bytes(b"an earlier image")
+    with pytest.raises(ValueError, match=r"ending in \.yaml"):
+        save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), target, image_format=image_format)
+    assert target.read_bytes() == b"an earlier image"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]
