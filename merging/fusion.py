@@ -252,5 +252,10 @@ def merge(
     .. [1] H. Lee, "Tomographic Feature-Based Map Merging for Multi-Robot
        Systems", Electronics 2020, 9(1), 107.
     """
+    if matrix is None:  # fuse() reads None as "leave this map out"
+        raise TypeError(
+            "matrix is None: map 2 has no transform to map 1 (a refused or unlinked pair); "
+            "merge only pairs with a (3, 3) matrix, or use fuse() to leave maps out"
+        )
     frame = map1 if isinstance(map1, OccupancyGrid) else None
     return fuse([map1, map2], [np.eye(3), matrix], frame=frame)

@@ -155,6 +155,12 @@ def test_bad_matrices_are_refused(matrix: np.ndarray, message: str) -> None:
     assert MAX_FUSED_CELLS < (1e5) ** 2
 
 
+def test_merge_without_a_matrix_is_refused_not_map_1_alone() -> None:
+    cells = np.zeros((10, 10), dtype=np.int8)
+    with pytest.raises(TypeError, match="matrix is None"):
+        merge(cells, cells, None)  # type: ignore[arg-type]
+
+
 def test_fuse_needs_one_matrix_per_map() -> None:
     cells = np.zeros((3, 3), dtype=np.int8)
     with pytest.raises(ValueError, match="one per map"):
