@@ -92,15 +92,15 @@ from merging.angular import (
     rotation_correlation,
     rotation_peaks,
 )
-from merging.api import register_method
+from merging.api import MIN_OCCUPIED_CELLS, register_method
 from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
-from merging.grid import OccupancyGrid, observed_part, validate_cells
+from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.metrics import as_matrix
 from merging.mirror import MirrorCandidates, mirrored_part, twin_ground
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
 from merging.refine import SmoothedMap, refine_transform
 from merging.result import Hypothesis, MergeResult
-from merging.transforms import apply_transform, translation_matrix
+from merging.transforms import apply_transform, cells_to_metres, translation_matrix
 from merging.verdict import MirrorSearch, judge
 from merging.verify import PreparedMap, Verification, prepare_map, verify
 
@@ -498,15 +498,50 @@ def refine_from(
     Raises
     ------
     TypeError, ValueError
-        For grids not in the ROS coding, a matrix that is not a finite 3x3
-        one, or ``params`` that is not a TomographicParams.
+        For grids not in the ROS coding, two OccupancyGrids of different
+        resolutions, a matrix that is not a finite, invertible 3x3 one, or
+        ``params`` that is not a TomographicParams.
+
+    Returns
+    -------
+    MergeResult
+        As :func:`merging.estimate_transform`'s (``matrix_metres`` when both
+        maps are OccupancyGrids); not accepted, with the start as its
+        matrix, when either map holds fewer than
+        :data:`~merging.api.MIN_OCCUPIED_CELLS` occupied cells.
     """
     cells1 = validate_cells(map1, name="map1")
     cells2 = validate_cells(map2, name="map2")
     matrix = as_matrix(matrix)
+    if abs(np.linalg.det(matrix[:2, :2])) < 1e-9:
+        raise ValueError(
+            "matrix is singular (it folds map 2 onto a line); give a rigid transform, "
+            "map 2 cells -> map 1 cells"
+        )
     if not isinstance(params, TomographicParams):
         raise TypeError(f"params must be a TomographicParams, got {type(params).__name__}")
+    if (
+        isinstance(map1, OccupancyGrid)
+        and isinstance(map2, OccupancyGrid)
+        and not np.isclose(map1.resolution, map2.resolution)
+    ):
+        raise ValueError(
+            f"map resolutions differ ({map1.resolution} m vs {map2.resolution} m): cells are "
+            "matched as they are; resample one map first, or search with estimate_transform"
+        )
     clock = time.perf_counter()
+    counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
+    if min(counts) < MIN_OCCUPIED_CELLS:
+        refused = MergeResult(
+            matrix=matrix,
+            confidence=0.0,
+            accepted=False,
+            method="tomographic",
+            timings={"total": time.perf_counter() - clock},
+            reason=f"too few occupied cells to match (map1 {counts[0]}, map2 {counts[1]}; "
+            f"need {MIN_OCCUPIED_CELLS})",
+        )
+        return _with_metres(refused, map1, map2)
     (crop1, offset1), (crop2, offset2) = observed_part(cells1), observed_part(cells2)
     first = prepare_map(crop1, params=params.verify)
     second = prepare_map(crop2, params=params.verify)
@@ -520,7 +555,15 @@ def refine_from(
         Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
     )
     result = _judged(maps, refined[1], None, hypotheses, timings, mirror_check=False)
-    return replace(result, matrix=best)
+    timings["total"] = time.perf_counter() - clock
+    return _with_metres(replace(result, matrix=best), map1, map2)
+
+
+def _with_metres(result: MergeResult, map1: Any, map2: Any) -> MergeResult:
+    """``result`` with its matrix in metres too, when both maps are OccupancyGrids."""
+    if not (isinstance(map1, OccupancyGrid) and isinstance(map2, OccupancyGrid)):
+        return result
+    return replace(result, matrix_metres=cells_to_metres(result.matrix, map1, map2))
 
 
 register_method("tomographic", params_type=TomographicParams)(tomographic_merge)

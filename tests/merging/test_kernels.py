@@ -22,7 +22,7 @@ from merging.params import TomographicParams
 from merging.refine import Field, SmoothedMap, _field_sample, refine_transform
 from merging.refine_kernels import normal_equations
 from merging.tomographic import refine_from
-from merging.transforms import apply_transform, rigid_matrix
+from merging.transforms import apply_transform, cells_to_metres, rigid_matrix
 from merging.verify import (
     Verification,
     _landing,
@@ -239,8 +239,23 @@ def test_refine_from_validates_its_input(building: np.ndarray) -> None:
         refine_from(building, building, np.eye(2))
     with pytest.raises(TypeError, match="TomographicParams"):
         refine_from(building, building, np.eye(3), params=object())  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="singular"):
+        refine_from(building, building, np.diag([1.0, 0.0, 1.0]))
     grid = merging.OccupancyGrid(building)
-    assert refine_from(grid, grid, rigid_matrix(0.8, -0.5, 0.002)).accepted
+    result = refine_from(grid, grid, rigid_matrix(0.8, -0.5, 0.002))
+    assert result.accepted
+    assert np.allclose(result.matrix_metres, cells_to_metres(result.matrix, grid, grid))
+    assert result.timings["total"] >= result.timings["refine"]
+    coarser = merging.OccupancyGrid(building, resolution=0.1)
+    with pytest.raises(ValueError, match="resolutions differ"):
+        refine_from(grid, coarser, np.eye(3))
+
+
+def test_refine_from_refuses_a_map_without_walls(building: np.ndarray) -> None:
+    start = rigid_matrix(2.0, 1.0, 0.0)
+    result = refine_from(building, np.zeros((50, 50), np.int8), start)
+    assert not result.accepted and "too few occupied cells" in result.reason
+    assert np.array_equal(result.matrix, start)
 
 
 def test_compiled_field_sampling_matches_numpy() -> None:
