@@ -9,13 +9,17 @@ from numpy.typing import ArrayLike, NDArray
 from merging.grid import (
     FREE_THRESHOLD,
     OCCUPIED_THRESHOLD,
+    OccupancyGrid,
     occupied_cells,
     validate_cells,
 )
 from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
 
+MapLike = ArrayLike | OccupancyGrid
+"""A map as the functions here take it: an OccupancyGrid or its cells in the ROS coding."""
 
-def matching_index(map1: ArrayLike, map2: ArrayLike, matrix: ArrayLike) -> float:
+
+def matching_index(map1: MapLike, map2: MapLike, matrix: ArrayLike) -> float:
     """The matching index Ψ of eq. (31) of the paper.
 
     Map 2 is carried into map 1's grid with ``matrix``; the index is the
@@ -106,22 +110,31 @@ def _reach(
     )
 
 
-def _counts(map1: ArrayLike, map2: ArrayLike, matrix: ArrayLike) -> tuple[int, int, int, int]:
+def _counts(map1: MapLike, map2: MapLike, matrix: ArrayLike) -> tuple[int, int, int, int]:
     """:func:`_overlap_counts` of two maps given as the public functions take them."""
-    cells1 = np.ascontiguousarray(validate_cells(np.asarray(map1), name="map1"))
-    cells2 = np.ascontiguousarray(validate_cells(np.asarray(map2), name="map2"))
-    forward = np.asarray(matrix, dtype=float)
+    cells1 = np.ascontiguousarray(_cells(map1, name="map1"))
+    cells2 = np.ascontiguousarray(_cells(map2, name="map2"))
+    forward = as_matrix(matrix)
+    if abs(np.linalg.det(forward[:2, :2])) < 1e-9:
+        raise ValueError("matrix is singular (it folds map 2 onto a line); give a rigid transform")
     inverse = np.ascontiguousarray(np.linalg.inv(forward))  # as merging.warp.warp_cells
     rows, cols = _reach(cells2, forward, cells1.shape)
     counts = _overlap_counts(cells1, cells2, inverse, rows, cols)
     return (int(counts[0]), int(counts[1]), int(counts[2]), int(counts[3]))
 
 
+def _cells(value: object, *, name: str) -> NDArray[np.int8]:
+    """A map as the public functions here take it (an OccupancyGrid or array-like), checked."""
+    return validate_cells(
+        value if isinstance(value, OccupancyGrid) else np.asarray(value), name=name
+    )
+
+
 def _matching(both: int, either: int) -> float:
     return float(both) / either if either else 0.0
 
 
-def acceptance_index(map1: ArrayLike, map2: ArrayLike, matrix: ArrayLike) -> float:
+def acceptance_index(map1: MapLike, map2: MapLike, matrix: ArrayLike) -> float:
     """Birk and Carpin's acceptance index ω = agr / (agr + dis).
 
     Over the cells both maps know after carrying map 2 into map 1's grid,
@@ -141,7 +154,7 @@ def _acceptance(agree: int, disagree: int) -> float:
     return float(agree) / total if total else 0.0
 
 
-def match_indices(map1: ArrayLike, map2: ArrayLike, matrix: ArrayLike) -> tuple[float, float]:
+def match_indices(map1: MapLike, map2: MapLike, matrix: ArrayLike) -> tuple[float, float]:
     """``(matching_index, acceptance_index)`` of one transform, comparing the maps once.
 
     The same values as :func:`matching_index` and :func:`acceptance_index`, at
@@ -152,7 +165,7 @@ def match_indices(map1: ArrayLike, map2: ArrayLike, matrix: ArrayLike) -> tuple[
     return _matching(both, either), _acceptance(agree, disagree)
 
 
-def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: ArrayLike) -> tuple[float, float]:
+def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: MapLike) -> tuple[float, float]:
     """Error of an estimated transform against the truth, on map 2's occupied cells.
 
     Returns
@@ -164,7 +177,8 @@ def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: ArrayLike) -> t
     rotation_deg : float
         Absolute rotation difference in degrees, in ``[0, 180]``.
     """
-    cells2 = validate_cells(np.asarray(map2), name="map2")
+    cells2 = _cells(map2, name="map2")
+    estimate, truth = as_matrix(estimate), as_matrix(truth)
     points = occupied_cells(cells2)
     if len(points) == 0:
         rows, cols = cells2.shape

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from merging.grid import free_mask, occupied_mask
+from merging.grid import OccupancyGrid, free_mask, occupied_mask
 from merging.metrics import (
     acceptance_index,
     as_matrix,
@@ -165,3 +165,23 @@ def test_as_matrix_checks_shape_and_finiteness() -> None:
         as_matrix(np.eye(2))
     with pytest.raises(ValueError, match="3x3"):
         as_matrix(np.full((3, 3), np.inf))
+
+
+def test_metrics_take_occupancy_grids_as_the_other_functions_do(building: np.ndarray) -> None:
+    grid, matrix = OccupancyGrid(building), rigid_matrix(3.0, -1.0, 0.1)
+    assert matching_index(grid, grid, matrix) == matching_index(building, building, matrix)
+    assert acceptance_index(grid, grid, matrix) == acceptance_index(building, building, matrix)
+    assert transform_error(matrix, np.eye(3), grid) == transform_error(matrix, np.eye(3), building)
+
+
+@pytest.mark.parametrize(
+    ("matrix", "message"),
+    [(np.full((3, 3), np.nan), "3x3"), (np.eye(2), "3x3"), (np.diag([1.0, 0.0, 1.0]), "singular")],
+)
+def test_metrics_refuse_a_matrix_that_is_not_a_transform(matrix: np.ndarray, message: str) -> None:
+    cells = np.zeros((4, 6), dtype=np.int8)
+    with pytest.raises(ValueError, match=message):
+        match_indices(cells, cells, matrix)
+    if message == "3x3":
+        with pytest.raises(ValueError, match=message):
+            transform_error(matrix, np.eye(3), cells)
