@@ -162,6 +162,12 @@ def monte_carlo_optimise(
       compare both maps there.
 
     The sum runs over α' = 180° and 90°.
+
+    As in Table 1, the answer is the best *sample*: the coarse estimate the
+    mixtures are centred on is not itself a candidate (it is returned only
+    when no sample scores at all), so a coarse estimate that is already
+    exact, as for two identical maps, can give way to a sample a few cells
+    off. This is the published method, kept as written.
     """
     centre2 = np.asarray(map_centre(cells2.shape))
     points2 = occupied_cells(cells2)
