@@ -42,7 +42,7 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
     Parameters
     ----------
     render_mode : str or None
-        None or ``"rgb_array"``.
+        None, ``"rgb_array"`` or ``"human"`` (a matplotlib window).
     **kwargs
         Arguments of :class:`~envs.multi_robot_exploration_v0.MultiRobotExplorationEnv`.
     """

@@ -48,7 +48,8 @@ Action
 ------
 ``(linear, angular)`` as fractions of the maximum forward speed (1 m/s) and turn
 rate (2 rad/s); values outside ``[-1, 1]`` are clipped. An agent given no action
-stands still. One step is 0.1 s of physics for all robots at once.
+is commanded ``(0, 0)``: it brakes (at most 5 m/s², so from full speed it stops
+within about 0.1 m) and stays. One step is 0.1 s of physics for all robots at once.
 
 Reward
 ------
@@ -140,6 +141,7 @@ Version history
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -184,6 +186,20 @@ def agent_name(index: int) -> str:
     return f"robot_{index}"
 
 
+def _whole(value: object) -> bool:
+    """Whether ``value`` is a whole number (an int, not a bool)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+def _real(value: object) -> bool:
+    """Whether ``value`` is a finite number (not a bool)."""
+    return (
+        isinstance(value, int | float | np.integer | np.floating)
+        and not isinstance(value, bool | np.bool_)
+        and math.isfinite(value)
+    )
+
+
 class MultiRobotExplorationEnv(ParallelEnv):
     """The parallel environment of the module docstring (its spec card)."""
 
@@ -217,13 +233,23 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
-        if not (isinstance(robots, int | np.integer) and robots >= 1):
+        if not (_whole(robots) and robots >= 1):
             raise ValueError(f"robots must be a whole number >= 1, got {robots!r}")
-        if not (isinstance(max_cycles, int | np.integer) and max_cycles >= 1):
+        if not (_whole(max_cycles) and max_cycles >= 1):
             raise ValueError(f"max_cycles must be a whole number >= 1, got {max_cycles!r}")
-        if not 0.0 < coverage_target <= 1.0:
-            raise ValueError(f"coverage_target must be in (0, 1], got {coverage_target}")
-        if not (isinstance(crop_size, int | np.integer) and crop_size >= 2 and crop_size % 2 == 0):
+        if not (_real(coverage_target) and 0.0 < coverage_target <= 1.0):
+            raise ValueError(f"coverage_target must be a number in (0, 1], got {coverage_target!r}")
+        if not isinstance(merge, bool | np.bool_):
+            raise ValueError(f"merge must be True or False, got {merge!r}")
+        if not (_real(crop_resolution) and crop_resolution > 0):
+            raise ValueError(
+                f"crop_resolution must be a positive number of metres, got {crop_resolution!r}"
+            )
+        if simulation is not None and not isinstance(simulation, SimulationConfig):
+            raise ValueError(
+                f"simulation must be a SimulationConfig, got {type(simulation).__name__}"
+            )
+        if not (_whole(crop_size) and crop_size >= 2 and crop_size % 2 == 0):
             raise ValueError(f"crop_size must be an even number of cells >= 2, got {crop_size!r}")
         if observation_format not in OBSERVATION_FORMATS:
             raise ValueError(
@@ -233,7 +259,12 @@ class MultiRobotExplorationEnv(ParallelEnv):
         if floors is not None:
             if isinstance(world, World) or world != 0:
                 raise ValueError("give either world or floors, not both")
-            if len(floors) == 0 or any(int(f) < 0 for f in floors):
+            if (
+                isinstance(floors, str)
+                or not isinstance(floors, Sequence)
+                or len(floors) == 0
+                or not all(_whole(f) and f >= 0 for f in floors)
+            ):
                 raise ValueError(
                     f"floors must be non-negative floor plan seeds, got {floors!r}; "
                     "e.g. TRAINING_FLOORS or HELD_OUT_FLOORS"
@@ -273,7 +304,11 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self._observation_space = observation_space(
                 lidar.beams, lidar.max_range, self.crop_size, self._bound
             )
-        self._action_space = action_space()
+        # One object per agent, so that seeding one agent's space leaves the others' alone.
+        self._observation_spaces = {
+            agent: copy.deepcopy(self._observation_space) for agent in self.possible_agents
+        }
+        self._action_spaces = {agent: action_space() for agent in self.possible_agents}
         self.np_random: np.random.Generator | None = None
         self.session: TeamSession | None = None
         self.last_episode: dict[str, Any] | None = None
@@ -285,12 +320,17 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.window = HumanWindow(self.metadata["render_fps"], title=self.metadata["name"])
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
-        """The observation space of ``agent`` (the same object every call)."""
-        return self._observation_space
+        """The observation space of ``agent`` (its own object, the same every call)."""
+        return self._observation_spaces[self._known(agent)]
 
     def action_space(self, agent: str) -> spaces.Space[Any]:
-        """The action space of ``agent`` (the same object every call)."""
-        return self._action_space
+        """The action space of ``agent`` (its own object, the same every call)."""
+        return self._action_spaces[self._known(agent)]
+
+    def _known(self, agent: str) -> str:
+        if agent not in self._action_spaces:
+            raise KeyError(f"unknown agent {agent!r}; agents are {self.possible_agents}")
+        return agent
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
@@ -367,20 +407,20 @@ class MultiRobotExplorationEnv(ParallelEnv):
         """Keep the episode's final figures (``last_episode``, ``infos[a]["episode"]``)."""
         session = self.session
         assert session is not None  # step() checked it
+        returns = {a: float(r) for a, r in zip(self.possible_agents, self._returns, strict=True)}
         summary = {
             "l": session.steps,
             "team_coverage": session.coverage.fraction,
             "terminated": terminated,
             "truncated": not terminated,
             "world": self.world.name,
-            "returns": {
-                a: float(r) for a, r in zip(self.possible_agents, self._returns, strict=True)
-            },
+            "returns": returns,
         }
         self.last_episode = summary
         for k, agent in enumerate(self.possible_agents):
             infos[agent]["episode"] = {
                 **summary,
+                "returns": dict(returns),  # each agent's own, as every info is
                 "r": float(self._returns[k]),
                 "coverage": session.coverage.robot_fraction(k),
             }
@@ -438,8 +478,9 @@ class MultiRobotExplorationEnv(ParallelEnv):
         return frame
 
     def close(self) -> None:
-        """Release the episode and close the window, if any."""
+        """Release the episode (no agent is left) and close the window, if any."""
         self.session = None
+        self.agents = []
         if self.window is not None:
             self.window.close()
 

@@ -6,7 +6,7 @@ image):
 * the ground truth in map_server greys (free white, occupied black, unknown grey);
 * free space the team has observed, tinted blue;
 * the walls of the latest merged map, placed in the world by its reference
-  robot's true start pose, in red: where they miss the black walls of the
+  robot's true start pose, in magenta: where they miss the black walls of the
   truth, the merge (or the odometry) is off;
 * each robot as a disc in its colour with a heading tick, at its true pose.
 

@@ -179,6 +179,51 @@ def test_bad_arguments_are_rejected() -> None:
         env.step({"robot_0": np.array([np.nan, 0.0])})
 
 
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("robots", True),
+        ("merge_interval", True),
+        ("merge", "no"),
+        ("coverage_target", "0.5"),
+        ("crop_resolution", float("nan")),
+        ("simulation", "x"),
+        ("floors", [1.7]),
+    ],
+)
+def test_options_of_the_wrong_kind_are_named(option: str, value: Any) -> None:
+    # A bool is not a count, a string not a switch or a fraction: each is named, not
+    # read as 1, True or a floor number.
+    options = {"world": 0} if option == "floors" else {}
+    with pytest.raises(ValueError, match=option):
+        exploration.parallel_env(**{**options, option: value})
+
+
+def test_each_agent_has_its_own_spaces() -> None:
+    env = small_env()
+    env.action_space("robot_0").seed(0)
+    env.action_space("robot_1").seed(1)
+    first = env.action_space("robot_0").sample()
+    env.action_space("robot_0").seed(0)
+    assert np.array_equal(first, env.action_space("robot_0").sample())
+    assert env.observation_space("robot_0") is not env.observation_space("robot_1")
+    assert env.action_space("robot_0") is env.action_space("robot_0")
+    with pytest.raises(KeyError, match="unknown agent"):
+        env.action_space("robot_9")
+
+
+def test_close_leaves_no_agent_and_episode_figures_are_each_agent_s_own() -> None:
+    env = small_env(coverage_target=0.05)
+    env.reset(seed=1)
+    *_, infos = env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    infos["robot_0"]["episode"]["returns"]["robot_1"] = -1.0
+    assert infos["robot_1"]["episode"]["returns"]["robot_1"] >= 0.0
+    assert env.last_episode is not None and env.last_episode["returns"]["robot_1"] >= 0.0
+    env.reset(seed=1)
+    env.close()
+    assert env.agents == []
+
+
 @pytest.mark.parametrize("interrupted", [True, False])
 def test_ctrl_c_inside_a_compiled_kernel_reaches_the_learner_as_itself(
     monkeypatch: pytest.MonkeyPatch, interrupted: bool

@@ -91,8 +91,12 @@ class TeamConfig:
         check_team_method(self.method)
         for name in ("merge_interval", "confirmations", "share_interval"):
             value = getattr(self, name)
-            if not (isinstance(value, int | np.integer) and value >= 1):
+            whole = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+            if not (whole and value >= 1):
                 raise ValueError(f"{name} must be a whole number of steps >= 1, got {value!r}")
+        for name in ("merge", "tracking", "merge_worker"):
+            if not isinstance(getattr(self, name), bool | np.bool_):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
 
 class TeamSession:
