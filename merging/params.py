@@ -18,10 +18,58 @@ shared by every method, so that ``accepted`` means the same for all of them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+import numbers
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 # The dataclasses below are frozen and slotted; their defaults are the values the
 # benchmarks in scripts/ were run with.
+
+
+def _check_fields(settings: Any, *, positive: tuple[str, ...], fractions: tuple[str, ...]) -> None:
+    """Raise naming the field unless every field of ``settings`` is of its annotated kind.
+
+    Whole numbers (``int``, not bool) are at least 0, and at least 1 when
+    ``positive`` names them; numbers (``float``) are finite, and above 0 when
+    ``positive`` names them, within ``[0, 1]`` when ``fractions`` does; a
+    tuple of floats holds finite numbers (above 0 when named positive); a
+    stage's settings are an instance of their class. Without it a value of
+    the wrong kind fails deep inside the search, or a threshold above 1
+    refuses every match with a reason about the walls.
+    """
+    owner = type(settings).__name__
+    for item in fields(settings):
+        name, kind, value = item.name, str(item.type), getattr(settings, item.name)
+        where = f"{owner}.{name}"
+        if kind == "int":
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+                raise TypeError(f"{where} must be a whole number, got {value!r}")
+            if value < (1 if name in positive else 0):
+                least = "1" if name in positive else "0"
+                raise ValueError(f"{where} must be at least {least}, got {value!r}")
+        elif kind == "float" or kind.startswith("tuple[float"):
+            values = value if kind != "float" else (value,)
+            if kind != "float" and not (isinstance(value, tuple) and value):
+                raise TypeError(f"{where} must be a non-empty tuple of numbers, got {value!r}")
+            for entry in values:
+                if isinstance(entry, bool) or not isinstance(entry, numbers.Real):
+                    raise TypeError(f"{where} must hold numbers, got {value!r}")
+                number = float(entry)
+                if not math.isfinite(number) or (name in positive and number <= 0):
+                    kind_of = "positive" if name in positive else "finite"
+                    raise ValueError(f"{where} must be {kind_of}, got {value!r}")
+                if name in fractions and not 0.0 <= number <= 1.0:
+                    raise ValueError(f"{where} must lie within [0, 1], got {value!r}")
+        elif kind == "bool":
+            if not isinstance(value, bool):
+                raise TypeError(f"{where} must be True or False, got {value!r}")
+        elif (
+            kind in globals()
+            and isinstance(globals()[kind], type)
+            and not isinstance(value, globals()[kind])
+        ):
+            raise TypeError(f"{where} must be a {kind}, got {type(value).__name__}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,6 +103,11 @@ class RotationParams:
     peak_separation_deg: float = 4.0
     peaks: int = 3
 
+    def __post_init__(self) -> None:
+        _check_fields(
+            self, positive=("angle_step_deg", "peaks"), fractions=("max_frequency_fraction",)
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class TranslationParams:
@@ -83,6 +136,9 @@ class TranslationParams:
     free_penalty: float = 0.5
     peak_suppression: int = 2
     peaks: int = 3
+
+    def __post_init__(self) -> None:
+        _check_fields(self, positive=("coarse_cells", "peaks"), fractions=())
 
 
 @dataclass(frozen=True, slots=True)
@@ -133,6 +189,11 @@ class VerifyParams:
     overlap_preference: float = 0.05
     space_preference: float = 1.5
     screen_stride: int = 4
+
+    def __post_init__(self) -> None:
+        _check_fields(
+            self, positive=("max_points", "max_open_points", "screen_stride"), fractions=()
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,6 +291,19 @@ class ConfidenceParams:
     shared_space_scale: float = 1000.0
     accept: float = 0.6
 
+    def __post_init__(self) -> None:
+        _check_fields(
+            self,
+            positive=(
+                "fit_width",
+                "support_scale",
+                "distinct_width",
+                "strength_scale",
+                "shared_space_scale",
+            ),
+            fractions=("accept",),
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class RobustParams:
@@ -322,6 +396,13 @@ class RobustParams:
         0.05,
     )
 
+    def __post_init__(self) -> None:
+        _check_fields(
+            self,
+            positive=("strength_widths", "widths"),
+            fractions=("agreement", "open_share", "open_consistency"),
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class GaussNewtonParams:
@@ -378,6 +459,19 @@ class GaussNewtonParams:
     curvature_points: int = 1500
     whole_field_share: float = 0.5
 
+    def __post_init__(self) -> None:
+        _check_fields(
+            self,
+            positive=(
+                "newton_factor",
+                "downsample_from_sigma",
+                "curvature_sigma",
+                "curvature_step",
+                "curvature_points",
+            ),
+            fractions=("whole_field_share",),
+        )
+
 
 @dataclass(frozen=True, slots=True)
 class RefineStage:
@@ -411,6 +505,9 @@ class RefineStage:
     iterations: int
     points: int
     local: bool
+
+    def __post_init__(self) -> None:
+        _check_fields(self, positive=("sigmas",), fractions=())
 
 
 DEFAULT_STAGES = (
@@ -492,6 +589,7 @@ class TomographicParams:
     distinct_cells: float = 4.0
 
     def __post_init__(self) -> None:
+        _check_fields(self, positive=(), fractions=())
         for name in ("stages", "mirror_stages"):
             _check_schedule(name, getattr(self, name))
 

@@ -18,7 +18,14 @@ from merging.angular import (
 )
 from merging.blur import blur_walls
 from merging.grid import free_mask, occupied_mask
-from merging.params import TomographicParams
+from merging.params import (
+    ConfidenceParams,
+    RefineStage,
+    RobustParams,
+    TomographicParams,
+    TranslationParams,
+    VerifyParams,
+)
 from merging.refine import Field, SmoothedMap, _field_sample, refine_transform
 from merging.refine_kernels import normal_equations
 from merging.tomographic import refine_from
@@ -214,7 +221,7 @@ def test_params_change_the_verdict(building: np.ndarray) -> None:
     default = merging.estimate_transform(building, map2)
     assert default.accepted
     never = TomographicParams()
-    never = replace(never, confidence=replace(never.confidence, accept=1.01))
+    never = replace(never, confidence=replace(never.confidence, accept=1.0))
     refused = merging.estimate_transform(building, map2, params=never)
     assert not refused.accepted
     assert np.allclose(refused.matrix, default.matrix)
@@ -232,6 +239,33 @@ def test_params_validate_the_schedule() -> None:
         TomographicParams(stages=())
     with pytest.raises(TypeError, match="stages\\[0\\] must be a RefineStage"):
         TomographicParams(stages=("wide",))  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("make", "error", "message"),
+    [
+        (lambda: TomographicParams(confidence="x"), TypeError, "confidence must be a Confidence"),
+        (lambda: VerifyParams(screen_stride=0), ValueError, "screen_stride must be at least 1"),
+        (lambda: TranslationParams(coarse_cells=0), ValueError, "coarse_cells must be at least 1"),
+        (lambda: VerifyParams(near_radius=1.5), TypeError, "near_radius must be a whole number"),
+        (lambda: ConfidenceParams(accept="0.7"), TypeError, "accept must hold numbers"),
+        (lambda: ConfidenceParams(accept=1.5), ValueError, r"accept must lie within \[0, 1\]"),
+        (lambda: ConfidenceParams(accept=float("nan")), ValueError, "accept must be finite"),
+        (lambda: RobustParams(widths=()), TypeError, "widths must be a non-empty tuple"),
+        (lambda: RefineStage(1, 1, (0.0,), 1, 3, True), ValueError, "sigmas must be positive"),
+        (lambda: TranslationParams(peaks=True), TypeError, "peaks must be a whole number"),
+    ],
+)
+def test_params_name_a_setting_of_the_wrong_kind(make, error, message: str) -> None:
+    # Unchecked, each failed deep inside the search (a zero stride, a string threshold)
+    # or refused every match with a reason about the walls (a threshold above 1).
+    with pytest.raises(error, match=message):
+        make()
+
+
+def test_params_take_numpy_numbers() -> None:
+    assert TranslationParams(coarse_cells=np.int64(120)).coarse_cells == 120
+    assert ConfidenceParams(accept=np.float32(0.7)).accept == pytest.approx(0.7)
 
 
 def test_refine_from_validates_its_input(building: np.ndarray) -> None:
