@@ -143,6 +143,27 @@ def test_foreign_csv_is_refused(tmp_path: Path) -> None:
         ResultsFile(out).rows()
 
 
+@pytest.mark.parametrize(
+    "content", [b"name,score\nalice,1\nbob,2", b"\x89PNG\r\n\x1a\n\x00\xb2\xff binary"]
+)
+def test_resuming_into_another_file_leaves_it_whole(tmp_path: Path, content: bytes) -> None:
+    # Its last line has no newline, as a torn row would: it must not be cut off
+    # before the columns show that the file is not a sweep's.
+    out = tmp_path / "mine.csv"
+    out.write_bytes(content)
+    with pytest.raises(ValueError, match="not a tomosim sweep results file"):
+        run_sweep(four_episodes(), out, resume=True)
+    assert out.read_bytes() == content
+
+
+def test_a_sweep_that_fails_to_start_leaves_no_empty_file(tmp_path: Path) -> None:
+    out = tmp_path / "rows.csv"
+    plan = SweepPlan(worlds=(str(tmp_path / "missing.yaml"),), robots=(2,), **SMALL)  # type: ignore[arg-type]
+    with pytest.raises(FileNotFoundError):
+        run_sweep(plan, out)
+    assert not out.exists()
+
+
 def sweep_command(out: Path, *, seeds: int, workers: int, steps: int) -> list[str]:
     """``tomosim sweep`` of ``seeds`` merging episodes on the small floor, in its own process."""
     return [

@@ -119,26 +119,50 @@ def run_sweep(
         raise FileNotFoundError(
             f"cannot write {results.path}: folder {results.path.absolute().parent} does not exist"
         )
+    existed = results.path.exists()
     had_rows = results.path.is_file() and results.path.stat().st_size > 0
-    with results.locked():
-        if had_rows and not resume:
-            raise ValueError(f"{results.path} already holds results; pass --resume or choose --out")
-        results.repair()
-        shared = plan.settings()
-        done = _done_keys(results, shared)
-        episodes = plan.episodes()
-        pending = [e for e in episodes if e.key not in done]
-        if plan.record_dir is not None:
-            plan.record_dir.mkdir(exist_ok=True)
-        if on_start is not None:
-            on_start(len(episodes), len(episodes) - len(pending))
-        run = _run_on_ray if executor == "ray" else _run_in_processes
-        ran = 0
-        for row in run(pending, shared, workers=workers, ray_address=ray_address, on_step=on_step):
-            results.append(row)
-            ran += 1
-            if progress is not None:
-                progress(row)
+    try:
+        with results.locked():
+            if had_rows and not resume:
+                raise ValueError(
+                    f"{results.path} already holds results; pass --resume or choose --out"
+                )
+            results.repair()
+            return _sweep(
+                plan, results, executor, workers, ray_address, progress, on_start, on_step
+            )
+    finally:
+        # A sweep that failed before its first row leaves no empty file of its own behind.
+        if not existed and results.path.is_file() and results.path.stat().st_size == 0:
+            results.path.unlink()
+
+
+def _sweep(
+    plan: SweepPlan,
+    results: ResultsFile,
+    executor: str,
+    workers: int | None,
+    ray_address: str | None,
+    progress: Progress | None,
+    on_start: Start | None,
+    on_step: Step | None,
+) -> SweepOutcome:
+    """The body of :func:`run_sweep`, with the results file locked and checked."""
+    shared = plan.settings()
+    done = _done_keys(results, shared)
+    episodes = plan.episodes()
+    pending = [e for e in episodes if e.key not in done]
+    if plan.record_dir is not None:
+        plan.record_dir.mkdir(exist_ok=True)
+    if on_start is not None:
+        on_start(len(episodes), len(episodes) - len(pending))
+    run = _run_on_ray if executor == "ray" else _run_in_processes
+    ran = 0
+    for row in run(pending, shared, workers=workers, ray_address=ray_address, on_step=on_step):
+        results.append(row)
+        ran += 1
+        if progress is not None:
+            progress(row)
     return SweepOutcome(len(episodes), len(episodes) - len(pending), ran, results.path)
 
 

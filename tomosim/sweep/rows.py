@@ -33,6 +33,8 @@ ROW_FIELDS = (
     "translation_error_m_max", "record", *TIMING_FIELDS,
 )  # fmt: skip
 """Columns of the results file, in order."""
+HEADER_BYTES = 4096
+"""Bytes of a file read to check that it starts with the results header (about 700)."""
 
 
 def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> dict[str, Any]:
@@ -165,21 +167,39 @@ class ResultsFile:
         """The whole rows in the file (none when it does not exist)."""
         if not self.path.is_file():
             return []
-        with self.path.open(newline="") as handle:
+        self.check_columns()
+        with self.path.open(newline="", encoding="utf-8") as handle:
             reader = csv.DictReader(handle)
-            if reader.fieldnames is None:
-                return []
-            if tuple(reader.fieldnames) != ROW_FIELDS:
-                raise ValueError(
-                    f"{self.path} is not a tomosim sweep results file (its columns differ); "
-                    "choose another --out"
-                )
             return [row for row in reader if None not in row.values() and None not in row]
 
+    def check_columns(self) -> None:
+        """Raise ValueError unless the file is missing, empty or starts with the header of
+        sweep results (:data:`ROW_FIELDS`); reads only its first line."""
+        if not self.path.is_file():
+            return
+        with self.path.open("rb") as handle:
+            first = handle.readline(HEADER_BYTES)
+        if not first:
+            return
+        try:
+            header = next(csv.reader([first.decode("utf-8").rstrip("\r\n")]), [])
+        except UnicodeDecodeError:
+            header = []
+        if tuple(header) != ROW_FIELDS:
+            raise ValueError(
+                f"{self.path} is not a tomosim sweep results file (its columns differ); "
+                "it was left as it was; choose another --out"
+            )
+
     def repair(self) -> int:
-        """Drop a trailing partial line left by a killed writer; returns rows kept."""
+        """Drop a trailing partial line left by a killed writer; returns rows kept.
+
+        Only a sweep results file is touched: any other file raises ValueError first
+        (:meth:`check_columns`), whole.
+        """
         if not self.path.is_file():
             return 0
+        self.check_columns()
         text = self.path.read_bytes()
         if text and not text.endswith(b"\n"):
             os.truncate(self.path, text.rfind(b"\n") + 1)
