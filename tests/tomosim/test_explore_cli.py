@@ -98,6 +98,21 @@ def test_review_prints_the_timeline_and_final_figures(
     assert f"{report['path_length_m']:.1f} m" in out and "overlap rate" in out
 
 
+def test_review_never_writes_its_image_over_the_recording_or_under_another_suffix(
+    explored: tuple[Path, dict], capsys: pytest.CaptureFixture[str]
+) -> None:
+    record, _ = explored
+    before = record.read_bytes()
+    status, _, err = run(["review", str(record), "--png", str(record)], capsys)
+    assert status == 2
+    assert_one_line_error(err, "is the recording itself")
+    status, _, err = run(["review", str(record), "--png", str(record.with_suffix(".jpg"))], capsys)
+    assert status == 2
+    assert_one_line_error(err, "--png must name a .png file")
+    assert record.read_bytes() == before
+    assert not record.with_suffix(".jpg").exists()
+
+
 def test_explore_text_summary(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     record = tmp_path / "text.rrd"
     argv = [

@@ -183,6 +183,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"give a .rrd recording, got {path}")
     if args.png is not None and args.no_png:
         raise UsageError("give either --png or --no-png, not both")
+    if args.png is not None and args.png.resolve() == path.resolve():
+        raise UsageError(f"--png {args.png} is the recording itself; choose another file")
+    if args.png is not None and args.png.suffix.lower() != ".png":
+        raise UsageError(f"--png must name a .png file, got {args.png}")
     try:
         recorded = read_recording(path)
     except FileNotFoundError as exc:
