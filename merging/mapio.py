@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import numpy as np
 import yaml
@@ -113,19 +113,10 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
         aliases (refused rather than expanded).
     """
     path = Path(yaml_path)
-    if not path.is_file():
-        raise FileNotFoundError(f"map file not found: {path}")
-    meta = _read_yaml(path)
-    if not isinstance(meta, dict):
-        raise ValueError(f"{path} must be a YAML mapping with image, resolution and origin")
-    missing = [key for key in ("image", "resolution", "origin") if key not in meta]
-    if missing:
-        raise ValueError(f"{path} lacks the key(s) {', '.join(missing)}")
-    image_path = Path(str(meta["image"]))
-    if not image_path.is_absolute():
-        image_path = path.parent / image_path
-    if not image_path.is_file():
-        raise FileNotFoundError(f"image {image_path} named by {path} not found")
+    meta = _map_meta(path)
+    image_path = _image_of(path, meta)
+    if not isinstance(meta["origin"], list | tuple):
+        raise ValueError(f"{path}: origin must be a list [x, y, yaw], got {meta['origin']!r}")
     try:
         resolution = float(meta["resolution"])
         origin_values = [float(v) for v in meta["origin"]]
@@ -139,8 +130,13 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     mode = str(meta.get("mode", "trinary"))
     if mode not in MODES:
         raise ValueError(f"{path}: mode must be one of {MODES}, got {mode!r}")
+    if not 0.0 <= free_thresh < occupied_thresh <= 1.0:
+        raise ValueError(
+            f"{path}: thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1, got "
+            f"free_thresh {free_thresh} and occupied_thresh {occupied_thresh}"
+        )
     with Image.open(image_path) as image:
-        pixels = np.asarray(image.convert("L"), dtype=np.float64)
+        pixels = grey_levels(image)
     data = pixels_to_cells(
         pixels,
         mode=mode,
@@ -150,6 +146,55 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     )
     origin = (origin_values[0], origin_values[1], origin_values[2])
     return OccupancyGrid(data[::-1].copy(), resolution=resolution, origin=origin)
+
+
+def map_image(yaml_path: str | Path) -> Path:
+    """The image file a ``map_server`` YAML names, resolved against the YAML's folder.
+
+    Raises as :func:`load_map` does for a missing or malformed YAML or a
+    missing image.
+    """
+    path = Path(yaml_path)
+    return _image_of(path, _map_meta(path))
+
+
+def _map_meta(path: Path) -> dict[str, Any]:
+    """The YAML mapping of a map, checked to hold the keys every map needs."""
+    if not path.is_file():
+        raise FileNotFoundError(f"map file not found: {path}")
+    meta = _read_yaml(path)
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path} must be a YAML mapping with image, resolution and origin")
+    missing = [key for key in ("image", "resolution", "origin") if key not in meta]
+    if missing:
+        raise ValueError(f"{path} lacks the key(s) {', '.join(missing)}")
+    return meta
+
+
+def _image_of(path: Path, meta: dict[str, Any]) -> Path:
+    """The existing image file ``meta`` (read from ``path``) names."""
+    image_path = Path(str(meta["image"]))
+    if not image_path.is_absolute():
+        image_path = path.parent / image_path
+    if not image_path.is_file():
+        raise FileNotFoundError(f"image {image_path} named by {path} not found")
+    return image_path
+
+
+SIXTEEN_BIT_MODES = ("I;16", "I;16B", "I;16L", "I;16N", "I")
+"""Pillow's modes of 16-bit greyscale images (PNGs of 16 bits a sample open as ``I``)."""
+
+
+def grey_levels(image: Image.Image) -> NDArray[np.float64]:
+    """The image's pixels as grey levels 0-255, as ``map_server`` reads them.
+
+    Colour images are averaged to grey (Pillow's ``L``); 16-bit greyscale is
+    scaled by 255 / 65535, where Pillow's ``L`` conversion would clip every
+    value above 255 to white and read unknown grey as free.
+    """
+    if image.mode in SIXTEEN_BIT_MODES:
+        return np.asarray(image, dtype=np.float64) * (255.0 / 65535.0)
+    return np.asarray(image.convert("L"), dtype=np.float64)
 
 
 def pixels_to_cells(

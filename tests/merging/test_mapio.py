@@ -20,6 +20,7 @@ from merging.mapio import (
     PIXEL_OCCUPIED,
     PIXEL_UNKNOWN,
     load_map,
+    map_image,
     save_map,
 )
 
@@ -144,6 +145,12 @@ def test_missing_image_is_file_not_found(tmp_path: Path) -> None:
         ("image: map.png\nresolution: fine\norigin: [0, 0, 0]\n", "malformed number"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0]\n", r"\[x, y, yaw\]"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nmode: odd\n", "mode"),
+        ("image: map.png\nresolution: 0.05\norigin: '123'\n", r"origin must be a list"),
+        (
+            "image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\n"
+            "occupied_thresh: 0.1\nfree_thresh: 0.9\n",
+            "free_thresh < occupied_thresh",
+        ),
     ],
 )
 def test_bad_yaml_is_a_value_error_naming_it(tmp_path: Path, text: str, message: str) -> None:
@@ -238,3 +245,20 @@ def test_save_refuses_a_yaml_path_named_like_its_image(tmp_path: Path, image_for
         save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), target, image_format=image_format)
     assert target.read_bytes() == b"an earlier image"
     assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]
+
+
+def test_a_sixteen_bit_image_reads_as_its_eight_bit_twin(tmp_path: Path) -> None:
+    # Pillow's L conversion clips 16-bit values to white: unknown grey read as free.
+    eight = np.array([[PIXEL_OCCUPIED, PIXEL_UNKNOWN], [PIXEL_FREE, PIXEL_UNKNOWN]], np.uint8)
+    path = write_map(tmp_path, eight)
+    expected = load_map(path).data
+    Image.fromarray(eight.astype(np.uint16) * 257).save(tmp_path / "map.png")
+    with Image.open(tmp_path / "map.png") as image:
+        assert image.mode.startswith("I")
+    np.testing.assert_array_equal(load_map(path).data, expected)
+    assert sorted(np.unique(expected)) == [-1, 0, 100]
+
+
+def test_map_image_names_the_file_the_yaml_points_at(tmp_path: Path) -> None:
+    path = write_map(tmp_path, np.zeros((2, 2)))
+    assert map_image(path) == tmp_path / "map.png"
