@@ -147,6 +147,23 @@ def test_output_that_is_a_directory_exits_1(
     assert_one_line_error(err, "is a directory")
 
 
+def test_merge_never_writes_over_an_input_s_image(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first, second = write_grid(tmp_path / "a.yaml", 1), write_grid(tmp_path / "b.yaml", 2)
+    # The output's image goes beside it with its name: shared.yaml writes shared.pgm,
+    # which here is the image of input a.yaml.
+    (tmp_path / "a.pgm").rename(tmp_path / "shared.pgm")
+    first.write_text(first.read_text().replace("a.pgm", "shared.pgm"))
+    before = (tmp_path / "shared.pgm").read_bytes()
+    output = tmp_path / "shared.yaml"
+    status, _, err = run(["merge", str(first), str(second), "-o", str(output)], capsys)
+    assert status == 2
+    assert_one_line_error(err, "shared.pgm, the image of input", "choose another output")
+    assert (tmp_path / "shared.pgm").read_bytes() == before
+    assert not output.exists()
+
+
 def test_merge_two_saved_maps_end_to_end(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -28,6 +28,7 @@ from PIL import Image
 
 from merging import OccupancyGrid, available_methods, check_method, load_map, merge_all, save_map
 from merging.api import DEFAULT_METHOD
+from merging.mapio import map_image
 from merging.resample import common_resolution
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.demo_maps import DEMO_SEED, demo_pair
@@ -94,6 +95,13 @@ def run(args: argparse.Namespace) -> int:
         paths, truth = write_demo(args.demo, output)
     # Maps of different resolutions are brought to the coarsest (each keeps its frame).
     grids = common_resolution([read_map(path) for path in paths])
+    image = output.with_suffix(".pgm").resolve()  # save_map writes the image beside the YAML
+    for path in paths:
+        if map_image(path).resolve() == image:
+            raise UsageError(
+                f"output {output} would write its image over {image.name}, the image of input "
+                f"{path}; choose another output file"
+            )
     try:
         result = merge_all(grids, method=args.method, rng=args.seed)
     except ValueError as exc:
