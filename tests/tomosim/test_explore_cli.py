@@ -113,6 +113,18 @@ def test_review_never_writes_its_image_over_the_recording_or_under_another_suffi
     assert not record.with_suffix(".jpg").exists()
 
 
+def test_review_of_a_file_cut_to_its_header_names_the_user_s_file(
+    explored: tuple[Path, dict], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    record, _ = explored
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(record.read_bytes()[:100])
+    status, _, err = run(["review", str(cut)], capsys)
+    assert status == 1
+    assert_one_line_error(err, str(cut))
+    assert "tomosim-review-" not in err  # not the repaired copy's temporary path
+
+
 def test_explore_text_summary(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     record = tmp_path / "text.rrd"
     argv = [

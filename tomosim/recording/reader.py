@@ -252,8 +252,13 @@ def _repair(source: Path, folder: Path) -> Path:
     return copy
 
 
-def _open_reader(source: Path) -> tuple[RrdReader, list[str]]:
-    """A reader of ``source`` and notes about its state; refuses other applications."""
+def _open_reader(source: Path, *, name: Path | None = None) -> tuple[RrdReader, list[str]]:
+    """A reader of ``source`` and notes about its state; refuses other applications.
+
+    Messages call the file ``name`` (default ``source``): the user's file, when
+    ``source`` is a repaired copy of it.
+    """
+    named = source if name is None else name
     notes: list[str] = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -263,15 +268,13 @@ def _open_reader(source: Path) -> tuple[RrdReader, list[str]]:
         except (RuntimeError, ValueError, OSError) as exc:
             raise _Torn(str(exc)) from exc
     if any(NO_FOOTER in str(w.message).lower() for w in caught):
-        notes.append(f"{source} was not closed: the run was killed or crashed while recording")
+        notes.append(f"{named} was not closed: the run was killed or crashed while recording")
     if not stores:
-        raise ValueError(
-            f"{source} holds no recording; give a .rrd file written by tomosim explore"
-        )
+        raise ValueError(f"{named} holds no recording; give a .rrd file written by tomosim explore")
     application = stores[0].application_id
     if application != APPLICATION_ID:
         raise ValueError(
-            f"{source} is a recording of the application {application!r}, not of "
+            f"{named} is a recording of the application {application!r}, not of "
             f"{APPLICATION_ID!r}; give a .rrd file written by tomosim explore"
         )
     return reader, notes
@@ -289,7 +292,7 @@ def _load(source: Path) -> tuple[list[Chunk], list[str]]:
         with tempfile.TemporaryDirectory(prefix="tomosim-review-") as folder:
             copy = _repair(source, Path(folder))
             try:
-                reader, _ = _open_reader(copy)
+                reader, _ = _open_reader(copy, name=source)
             except _Torn:
                 raise ValueError(f"cannot read {source} as a rerun recording: {torn}") from None
             notes = [
