@@ -271,15 +271,23 @@ def test_unlinkable_maps_exit_1_and_write_nothing(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A map without walls cannot be placed: the merge fails unless --partial is given."""
-    first, _, _ = demo_files
+    first, second, _ = demo_files
     empty = tmp_path / "empty.yaml"
     save_map(OccupancyGrid(np.zeros((30, 30), np.int8)), empty)
     output = tmp_path / "m.yaml"
-    status, out, err = run(["merge", str(first), str(empty), "-o", str(output)], capsys)
+    argv = ["merge", str(first), str(second), str(empty), "-o", str(output)]
+    status, out, err = run(argv, capsys)
     assert status == 1
     assert "not written" in out  # the report still shows the pairs, to see why
     assert_one_line_error(err, "could not link", "empty.yaml", "--partial")
+    assert str(first) not in err and str(second) not in err
     assert not output.exists() and not output.with_suffix(".pgm").exists()
+    # With two maps and no link, neither is to blame, and neither is shown as linked.
+    argv = ["merge", str(first), str(empty), "-o", str(output), "--json"]
+    status, out, err = run(argv, capsys)
+    assert status == 1
+    assert_one_line_error(err, "could not link any two of the 2 maps")
+    assert [entry["linked"] for entry in json.loads(out)["maps"]] == [False, False]
 
 
 def test_partial_merge_writes_the_linked_maps(
@@ -294,7 +302,7 @@ def test_partial_merge_writes_the_linked_maps(
     assert status == 0
     report = json.loads(out)
     assert report["unlinked"] == [1] and report["written"] is True
-    assert report["maps"][1]["linked"] is False
+    assert [entry["linked"] for entry in report["maps"]] == [False, False]
     assert any(note.startswith("grid 1 not linked") for note in report["notes"])
     np.testing.assert_array_equal(load_map(output).data, load_map(first).data)
     assert err.count("\n") == 1 and "empty.yaml" in err and "warning" in err

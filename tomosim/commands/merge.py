@@ -110,6 +110,9 @@ def run(args: argparse.Namespace) -> int:
     if fused is None:  # load_map returns OccupancyGrids, so the fused map is one too
         raise CommandError("the fused map lost its georeference")
     left_out = ", ".join(str(paths[k]) for k in result.unlinked)
+    unlinked = f"could not link {left_out} to the other maps"
+    if len(result.unlinked) == len(paths) - 1:  # no pair linked: no one map is to blame
+        unlinked = f"could not link any two of the {len(paths)} maps"
     written = not result.unlinked or args.partial
     if written:
         try:
@@ -121,8 +124,8 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(summary, indent=2) if args.json else render_table(summary))
     if not written:
         raise CommandError(
-            f"could not link {left_out} to the other maps (no confident merge; see the pairs "
-            f"above); {output} was not written; pass --partial to write the merge of the rest"
+            f"{unlinked} (no confident merge; see the pairs above); {output} was not "
+            "written; pass --partial to write the merge of the rest"
         )
     if result.unlinked:
         print(f"tomosim: warning: not merged (no confident link): {left_out}", file=sys.stderr)

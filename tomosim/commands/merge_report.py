@@ -49,9 +49,12 @@ def summarise(
     if fused is None:
         raise ValueError("the merge result has no georeferenced fused grid to report on")
     maps = []
+    # The reference is linked only when some other map is linked to it.
+    any_link = len(result.unlinked) < len(grids) - 1
     for k, (grid, path) in enumerate(zip(grids, paths, strict=True)):
         into = result.fused_transform(k)
-        entry: dict[str, Any] = {"index": k, "path": str(path), "linked": into is not None}
+        linked = into is not None and any_link
+        entry: dict[str, Any] = {"index": k, "path": str(path), "linked": linked}
         if into is not None:
             entry["cells"] = pose(into)
             entry["metres"] = pose(cells_to_metres(into, fused, grid))
