@@ -19,7 +19,7 @@ from typing import IO, Any
 import numpy as np
 import yaml
 from numpy.typing import NDArray
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
 from merging.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 
@@ -109,8 +109,9 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
         If the YAML file or its image does not exist.
     ValueError
         If the YAML is malformed, lacks a required key, is not text (an image
-        passed by mistake), is larger than :data:`MAX_YAML_BYTES` or uses YAML
-        aliases (refused rather than expanded).
+        passed by mistake), names a file that is not an image, is larger
+        than :data:`MAX_YAML_BYTES` or uses YAML aliases (refused rather than
+        expanded).
     """
     path = Path(yaml_path)
     meta = _map_meta(path)
@@ -135,8 +136,13 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
             f"{path}: thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1, got "
             f"free_thresh {free_thresh} and occupied_thresh {occupied_thresh}"
         )
-    with Image.open(image_path) as image:
-        pixels = grey_levels(image)
+    try:
+        with Image.open(image_path) as image:
+            pixels = grey_levels(image)
+    except UnidentifiedImageError as exc:
+        raise ValueError(
+            f"image {image_path} named by {path} is not an image Pillow can read; give a PGM or PNG"
+        ) from exc
     data = pixels_to_cells(
         pixels,
         mode=mode,

@@ -262,3 +262,11 @@ def test_a_sixteen_bit_image_reads_as_its_eight_bit_twin(tmp_path: Path) -> None
 def test_map_image_names_the_file_the_yaml_points_at(tmp_path: Path) -> None:
     path = write_map(tmp_path, np.zeros((2, 2)))
     assert map_image(path) == tmp_path / "map.png"
+
+
+def test_a_yaml_naming_a_file_that_is_not_an_image_is_named(tmp_path: Path) -> None:
+    (tmp_path / "notes.png").write_text("not pixels")
+    path = tmp_path / "map.yaml"
+    path.write_text("image: notes.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match=r"notes\.png named by .*map\.yaml is not an image"):
+        load_map(path)
