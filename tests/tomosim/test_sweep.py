@@ -284,6 +284,10 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
     [
         (["--robots", "40"], ["--robots must be from 1 to 16, got 40"], 2),
         (["--out", "/no/such/folder/rows.csv"], ["/no/such/folder", "does not exist"], 1),
+        (["--worlds", "foo"], ["--worlds must be seeds or map_server .yaml files", "'foo'"], 2),
+        (["--seeds", "-1"], ["--seeds must be non-negative integers, got -1"], 2),
+        (["--world-size", "0", "9"], ["--world-size must be two positive numbers"], 2),
+        (["--record-dir", __file__], ["--record-dir", "is a file; give a folder"], 2),
     ],
 )
 def test_sweep_errors_are_one_line(

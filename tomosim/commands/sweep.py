@@ -17,6 +17,7 @@ coverage (a bar on a terminal, a line every few seconds elsewhere).
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
@@ -125,6 +126,19 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
             f"estimates every pair of maps: {MAX_ROBOTS * (MAX_ROBOTS - 1) // 2} pairs at "
             f"{MAX_ROBOTS} robots)"
         )
+    for world in args.worlds:
+        if not (world.strip().isdigit() or Path(world).suffix in (".yaml", ".yml")):
+            raise UsageError(f"--worlds must be seeds or map_server .yaml files, got {world!r}")
+    negative = [seed for seed in args.seeds if seed < 0]
+    if negative:
+        raise UsageError(f"--seeds must be non-negative integers, got {negative[0]}")
+    if args.world_size is not None and not all(
+        math.isfinite(side) and side > 0 for side in args.world_size
+    ):
+        sides = " ".join(map(str, args.world_size))
+        raise UsageError(f"--world-size must be two positive numbers of metres, got {sides}")
+    if args.record_dir is not None and args.record_dir.exists() and not args.record_dir.is_dir():
+        raise UsageError(f"--record-dir {args.record_dir} is a file; give a folder")
     try:
         return SweepPlan(
             worlds=tuple(args.worlds),
