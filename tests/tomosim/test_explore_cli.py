@@ -198,6 +198,8 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
         (["explore", "--policy", "greedy"], ["unknown policy 'greedy'", "utility"]),
         (["explore", "--comm-range", "0"], ["--comm-range must be a positive number"]),
         (["explore", "--line-of-sight"], ["--line-of-sight needs --comm-range"]),
+        (["explore", "--record", "x.rrd", "--no-record"], ["--record or --no-record, not both"]),
+        (["explore", "--no-merge", "--method", "oracle"], ["drop --method oracle"]),
         (["review", "run.txt"], [".rrd"]),
         (["review", "run.rrd", "--png", "a.png", "--no-png"], ["not both"]),
     ],

@@ -169,6 +169,10 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         )
     if args.steps < 1:
         raise UsageError(f"--steps must be at least 1, got {args.steps}")
+    if args.no_record and args.record != DEFAULT_RECORD:
+        raise UsageError("give either --record or --no-record, not both")
+    if args.no_merge and args.method != DEFAULT_METHOD:
+        raise UsageError(f"--no-merge explores without merging; drop --method {args.method}")
     if args.merge_interval < 1:
         raise UsageError(f"--merge-interval must be at least 1 step, got {args.merge_interval}")
     if args.seed < 0:
