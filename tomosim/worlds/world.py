@@ -209,8 +209,9 @@ class World:
         rows, cols = np.nonzero(self.navigable(clearance))
         if len(rows) == 0:
             raise ValueError(
-                f"no free region in {self.name!r} has {clearance} m of clearance; "
-                "lower the clearance or use a roomier world"
+                f"no free region in {self.name!r} has {clearance} m of clearance (room to "
+                "place a robot); use a roomier world (or, placing poses yourself, a smaller "
+                "clearance)"
             )
         poses = np.zeros((count, 3))
         for chosen in range(count):
