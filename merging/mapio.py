@@ -166,6 +166,8 @@ def map_image(yaml_path: str | Path) -> Path:
 
 def _map_meta(path: Path) -> dict[str, Any]:
     """The YAML mapping of a map, checked to hold the keys every map needs."""
+    if path.is_dir():
+        raise ValueError(f"{path} is a directory; give a map's .yaml file")
     if not path.is_file():
         raise FileNotFoundError(f"map file not found: {path}")
     meta = _read_yaml(path)

@@ -270,3 +270,10 @@ def test_a_yaml_naming_a_file_that_is_not_an_image_is_named(tmp_path: Path) -> N
     path.write_text("image: notes.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
     with pytest.raises(ValueError, match=r"notes\.png named by .*map\.yaml is not an image"):
         load_map(path)
+
+
+def test_a_directory_given_as_a_map_is_named_as_one(tmp_path: Path) -> None:
+    folder = tmp_path / "maps.yaml"
+    folder.mkdir()
+    with pytest.raises(ValueError, match="is a directory"):
+        load_map(folder)

@@ -253,6 +253,10 @@ def test_review_of_a_missing_or_foreign_file(
     status, _, err = run(["review", str(tmp_path / "absent.rrd")], capsys)
     assert status == 1
     assert_one_line_error(err, "no such recording")
+    (tmp_path / "folder.rrd").mkdir()
+    status, _, err = run(["review", str(tmp_path / "folder.rrd")], capsys)
+    assert status == 1
+    assert_one_line_error(err, "folder.rrd is a directory")
     junk = tmp_path / "junk.rrd"
     junk.write_bytes(b"\x00" * 64)
     status, _, err = run(["review", str(junk)], capsys)

@@ -323,6 +323,8 @@ def read_recording(path: str | Path) -> RecordedRun:
         If the file is not a readable tomosim recording (the message says why).
     """
     source = Path(path)
+    if source.is_dir():
+        raise ValueError(f"{source} is a directory; give a .rrd recording file")
     if not source.is_file():
         raise FileNotFoundError(f"no such recording: {source}")
     _check_header(source)
