@@ -108,10 +108,10 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     FileNotFoundError
         If the YAML file or its image does not exist.
     ValueError
-        If the YAML is malformed, lacks a required key, is not text (an image
-        passed by mistake), names a file that is not an image, is larger
-        than :data:`MAX_YAML_BYTES` or uses YAML aliases (refused rather than
-        expanded).
+        If the path is a directory, or the YAML is malformed, lacks a
+        required key, is not text (an image passed by mistake), names a file
+        that is not an image, is larger than :data:`MAX_YAML_BYTES` or uses
+        YAML aliases (refused rather than expanded).
     """
     path = Path(yaml_path)
     meta = _map_meta(path)
