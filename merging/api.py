@@ -85,6 +85,21 @@ def check_method(method: object) -> str:
     return method
 
 
+def as_generator(rng: object, *, name: str = "rng") -> np.random.Generator:
+    """``numpy.random.default_rng(rng)``, or an error that names ``name`` and what it takes.
+
+    Accepts what ``default_rng`` does (None, a non-negative int, a
+    SeedSequence, a BitGenerator or a Generator) except a bool.
+    """
+    takes = f"{name} must be None, a non-negative int, a SeedSequence or a numpy Generator"
+    if isinstance(rng, bool | np.bool_):
+        raise TypeError(f"{takes}, got {rng!r}")
+    try:
+        return np.random.default_rng(rng)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(f"{takes}, got {rng!r}") from exc
+
+
 def estimate_transform(
     map1: OccupancyGrid | NDArray[Any],
     map2: OccupancyGrid | NDArray[Any],
@@ -154,7 +169,7 @@ def estimate_transform(
     to_search1, to_search2 = np.eye(3), np.eye(3)
     if both_grids:
         (cells1, to_search1), (cells2, to_search2) = _common_resolution(map1, map2)  # type: ignore[arg-type]
-    generator = np.random.default_rng(rng)
+    generator = as_generator(rng)
     counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
     if min(counts) < MIN_OCCUPIED_CELLS:
         result = MergeResult(

@@ -16,6 +16,7 @@ Conventions (pinned by ``tests/merging/test_grid.py``):
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -114,12 +115,25 @@ class OccupancyGrid:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data", validate_cells(self.data, name="data"))
-        if not (np.isfinite(self.resolution) and self.resolution > 0):
-            raise ValueError(
-                f"resolution must be a positive number of metres, got {self.resolution}"
+        resolution = self.resolution
+        if not (
+            isinstance(resolution, numbers.Real)
+            and not isinstance(resolution, bool | np.bool_)
+            and np.isfinite(resolution)
+            and resolution > 0
+        ):
+            raise ValueError(f"resolution must be a positive number of metres, got {resolution!r}")
+        object.__setattr__(self, "resolution", float(resolution))
+        origin = self.origin
+        if not (
+            isinstance(origin, tuple | list | np.ndarray)
+            and len(origin) == 3
+            and all(
+                isinstance(v, numbers.Real) and not isinstance(v, bool | np.bool_) for v in origin
             )
-        if len(self.origin) != 3 or not all(np.isfinite(v) for v in self.origin):
-            raise ValueError(f"origin must be three finite numbers (x, y, yaw), got {self.origin}")
+            and all(np.isfinite(v) for v in origin)
+        ):
+            raise ValueError(f"origin must be three finite numbers (x, y, yaw), got {origin!r}")
         object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))
 
     @classmethod

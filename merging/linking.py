@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_array
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 
-from merging.api import DEFAULT_METHOD, RngLike, check_method, estimate_transform
+from merging.api import DEFAULT_METHOD, RngLike, as_generator, check_method, estimate_transform
 from merging.fusion import FusedMap, fuse
 from merging.grid import OccupancyGrid, occupied_cells, validate_cells
 from merging.result import MergeResult
@@ -110,7 +110,10 @@ class Linking:
 
     def group(self, index: int) -> tuple[int, ...]:
         """The grids linked with grid ``index`` (itself included)."""
-        return next(g for g in self.groups if index in g)
+        found = next((g for g in self.groups if index in g), None)
+        if found is None:
+            raise KeyError(f"no grid {index!r}; grids are numbered 0..{self.count - 1}")
+        return found
 
     def linked(self, index: int) -> bool:
         """Whether grid ``index`` is linked to at least one other grid."""
@@ -290,7 +293,12 @@ def merge_all(
     cells = _check_grids(grids)
     count = len(cells)
     keys = [(i, j) for i in range(count) for j in range(i + 1, count)]
-    streams = np.random.default_rng(rng).spawn(len(keys))
+    generator = as_generator(rng)
+    try:
+        streams = generator.spawn(len(keys))
+    except TypeError:  # a generator whose seed cannot spawn (one made from a RandomState)
+        seeds = generator.integers(2**63, size=len(keys))
+        streams = [np.random.default_rng(int(seed)) for seed in seeds]
     pairs = {
         (i, j): estimate_transform(grids[i], grids[j], method=method, rng=stream, **options)
         for (i, j), stream in zip(keys, streams, strict=True)

@@ -167,8 +167,11 @@ def paper_merge(
         ("translation_samples", translation_samples),
         ("saliency_points", saliency_points),
     ):
-        if int(value) < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value}")
+        whole = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+        if not (whole and value >= 1):
+            raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    if not isinstance(optimise, bool | np.bool_):
+        raise ValueError(f"optimise must be True or False, got {optimise!r}")
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     sino1 = sinogram(cells1, angles_deg=PAPER_ANGLES_DEG)

@@ -36,6 +36,15 @@ def test_invalid_input_raises_a_named_error(bad, error, message) -> None:
         merging.estimate_transform(good, bad)
 
 
+@pytest.mark.parametrize(
+    ("rng", "error"), [(-1, ValueError), (1.5, TypeError), ("x", TypeError), (True, TypeError)]
+)
+def test_a_bad_rng_is_named(rng: object, error: type) -> None:
+    grid = np.zeros((5, 5), dtype=np.int8)
+    with pytest.raises(error, match="rng must be None, a non-negative int"):
+        merging.estimate_transform(grid, grid, rng=rng)  # type: ignore[arg-type]
+
+
 def test_unknown_method_is_named() -> None:
     grid = np.zeros((5, 5), dtype=np.int8)
     with pytest.raises(ValueError, match="unknown merging method 'nope'"):

@@ -132,6 +132,13 @@ def test_grid_validates_resolution_and_origin_and_is_frozen() -> None:
         OccupancyGrid(data, origin=(0.0, 0.0))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="origin"):
         OccupancyGrid(data, origin=(0.0, np.nan, 0.0))
+    for resolution in ("0.05", None, True, np.array([0.05, 0.1])):
+        with pytest.raises(ValueError, match="resolution must be a positive number"):
+            OccupancyGrid(data, resolution=resolution)  # type: ignore[arg-type]
+    for origin in (None, 5, "123", (0.0, 0.0, True)):
+        with pytest.raises(ValueError, match="origin must be three finite numbers"):
+            OccupancyGrid(data, origin=origin)  # type: ignore[arg-type]
+    assert OccupancyGrid(data, resolution=np.float32(0.1), origin=np.zeros(3)).origin == (0, 0, 0)
     grid = OccupancyGrid(data)
     assert grid.shape == (2, 2)
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -202,3 +202,11 @@ def test_every_group_gets_frames_into_its_root() -> None:
         metres[3], cells_to_metres(truth(2, 3), grids[2], grids[3]), atol=EXACT
     )
     np.testing.assert_allclose(metres[0], np.eye(3), atol=EXACT)
+
+
+def test_merge_all_takes_a_generator_made_from_a_random_state() -> None:
+    grids = [random_room_map((40, 50), seed=seed) for seed in (1, 2)]
+    result = merge_all(grids, rng=np.random.default_rng(np.random.RandomState(0)))
+    assert result.linking.count == 2
+    with pytest.raises(KeyError, match="no grid 7"):
+        result.linking.group(7)
