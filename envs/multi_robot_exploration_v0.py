@@ -256,6 +256,14 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 f"observation_format must be one of {OBSERVATION_FORMATS}, "
                 f"got {observation_format!r}"
             )
+        generated = isinstance(world, int | np.integer) or (
+            isinstance(world, str) and world.strip().isdigit()
+        )
+        if world_size is not None and floors is None and not generated:
+            raise ValueError(
+                f"world_size sizes a generated floor plan (a seed); the world {world!r} has its "
+                "own size: drop world_size"
+            )
         if floors is not None:
             if isinstance(world, World) or world != 0:
                 raise ValueError("give either world or floors, not both")

@@ -199,6 +199,11 @@ def test_options_of_the_wrong_kind_are_named(option: str, value: Any) -> None:
         exploration.parallel_env(**{**options, option: value})
 
 
+def test_world_size_is_refused_for_a_world_with_its_own_size(tmp_path) -> None:
+    with pytest.raises(ValueError, match="world_size sizes a generated floor plan"):
+        exploration.parallel_env(world=str(tmp_path / "map.yaml"), world_size=(12.0, 9.0))
+
+
 def test_each_agent_has_its_own_spaces() -> None:
     env = small_env()
     env.action_space("robot_0").seed(0)
