@@ -42,9 +42,10 @@ from tomosim.recording.paths import (
     TRUTH,
     map_path,
     path_length_path,
+    robot_colour,
     robot_coverage_path,
 )
-from tomosim.recording.recorder import crop_to_known
+from tomosim.recording.recorder import AGREEMENT_COLOUR, crop_to_known
 from tomosim.recording.sinks import Sinks
 from tomosim.team import RoundQuality, TeamConfig, TeamSession
 from tomosim.worlds import generate_floorplan
@@ -187,7 +188,7 @@ def test_views_follow_what_the_run_logs(
     assert rotation.contents == ("+ merge/rotation_error_deg/**",)
     held = held_entities(recorded[0])
     assert matched(rotation.contents[0], "/", held) == {"merge/rotation_error_deg/r0-r1"}
-    team = views["Team (team/**)"]
+    team = views["Coverage, overlap rate (fractions)"]
     fractions = {COVERAGE, OVERLAP_RATE, robot_coverage_path(0), robot_coverage_path(1)}
     lengths = {path_length_path(0), path_length_path(1), PATH_LENGTH_TOTAL}
     assert matched(team.contents[0], "/", held) == fractions | lengths
@@ -197,6 +198,40 @@ def test_views_follow_what_the_run_logs(
     assert "team/frontier_count" in matched(
         team.contents[0], "/", held | {"team/frontier_count": set()}
     )
+
+
+def series_styles(path: Path) -> dict[str, tuple[str, tuple[int, int, int]]]:
+    """Each styled series' name and RGB colour, by entity."""
+    styles = {}
+    for chunk in RrdReader(path).stream():
+        batch = chunk.to_record_batch()
+        if "SeriesLines:names" in batch.schema.names:
+            (name,) = batch.column("SeriesLines:names").to_pylist()[0]
+            (packed,) = batch.column("SeriesLines:colors").to_pylist()[0]
+            rgb = ((packed >> 24) & 255, (packed >> 16) & 255, (packed >> 8) & 255)
+            styles[chunk.entity_path.lstrip("/")] = (name, rgb)
+    return styles
+
+
+def test_team_series_are_named_and_drawn_in_their_robots_colours(
+    recorded: tuple[Path, TeamSession, list[float], list[RoundQuality]],
+) -> None:
+    # Unstyled, the viewer chose colours itself: r1's path length and the team's total
+    # came out alike, so r1 looked to have gone three times as far as the others.
+    styles = series_styles(recorded[0])
+    for k in range(2):
+        assert styles[path_length_path(k)] == (f"r{k}", robot_colour(k))
+        assert styles[robot_coverage_path(k)] == (f"r{k} own map", robot_colour(k))
+    lengths = [
+        styles[path] for path in (path_length_path(0), path_length_path(1), PATH_LENGTH_TOTAL)
+    ]
+    fractions = [
+        styles[path] for path in (COVERAGE, OVERLAP_RATE, *map(robot_coverage_path, (0, 1)))
+    ]
+    for chart in (lengths, fractions):
+        assert len({colour for _, colour in chart}) == len(chart)  # one colour per line
+    assert styles[PATH_LENGTH_TOTAL][0] == "team total"
+    assert styles[AGREEMENT][1] == AGREEMENT_COLOUR and min(AGREEMENT_COLOUR) > 200  # on dark
 
 
 def test_a_run_without_merging_has_no_merge_views(tmp_path: Path) -> None:

@@ -11,7 +11,8 @@ map's agreement with the truth; the team's exploration, every scalar
 series under ``team/`` but the path lengths (coverage, each robot's own
 coverage, the overlap rate, and any metric logged there later shows without a
 change here); and the path lengths in metres, apart, as their scale dwarfs
-the fractions. The time cursor follows the latest step, so a
+the fractions. The charts stand two to a row, an odd last one alone across
+the column. The time cursor follows the latest step, so a
 finished recording opens on its last state and a live one keeps up; the side
 panels start collapsed.
 
@@ -44,8 +45,9 @@ MARGIN_FRACTION = 0.03
 """Blank border around the world in the world view, as a fraction of its larger side."""
 WORLD_SHARE, SIDE_SHARE = 3, 2
 """Widths of the world view and of the maps-and-charts column."""
-MAPS_SHARE, CHARTS_SHARE = 3, 2
-"""Heights of the map tabs and of the charts in the right column."""
+MAPS_SHARE, CHARTS_SHARE = 2, 3
+"""Heights of the map tabs and of the charts in the right column (the merged map is
+in the world view too; the charts need the height to show their values)."""
 
 
 def world_view(
@@ -100,11 +102,13 @@ def chart_views(*, merging: bool) -> list[rrb.TimeSeriesView]:
                 name="Rotation error [deg]",
                 origin="/",
                 contents=[f"+ {quantity_path('rotation_error_deg')}/**"],
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),  # errors fall
             ),
             rrb.TimeSeriesView(
                 name="Translation error [m]",
                 origin="/",
                 contents=[f"+ {quantity_path('translation_error_m')}/**"],
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
             ),
             rrb.TimeSeriesView(
                 name="Confidence, agreement",
@@ -114,7 +118,7 @@ def chart_views(*, merging: bool) -> list[rrb.TimeSeriesView]:
         ]
     charts += [
         rrb.TimeSeriesView(
-            name="Team (team/**)",
+            name="Coverage, overlap rate (fractions)",
             origin="/",
             contents=[f"+ {TEAM}/**", f"- {PATH_LENGTHS}/**"],
         ),
@@ -122,14 +126,19 @@ def chart_views(*, merging: bool) -> list[rrb.TimeSeriesView]:
             name="Path length [m]",
             origin="/",
             contents=[f"+ {PATH_LENGTHS}/**"],
+            plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftTop),  # lengths grow
         ),
     ]
     return charts
 
 
 def _column(views: Sequence[rrb.View]) -> rrb.Container:
-    """Two views side by side per row (one row when there are at most two)."""
-    return rrb.Grid(*views, grid_columns=2)
+    """Rows of two views side by side; an odd last view takes a row of its own."""
+    rows: list[rrb.Container | rrb.View] = [
+        rrb.Horizontal(*views[k : k + 2]) if k + 1 < len(views) else views[k]
+        for k in range(0, len(views), 2)
+    ]
+    return rrb.Vertical(*rows)
 
 
 def default_blueprint(

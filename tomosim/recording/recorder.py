@@ -115,8 +115,13 @@ SCAN_RADIUS = rr.Radius.ui_points(1.5)
 BODY_RADIUS = rr.Radius.ui_points(5.0)
 """A robot's disc, drawn the same size at any zoom (UI points): a robot is some
 0.2 m, a handful of pixels when the whole floor is in view."""
-AGREEMENT_COLOUR = (40, 40, 40)
-"""RGB of the merged map's agreement series, apart from the pairs' colours."""
+AGREEMENT_COLOUR = (235, 235, 235)
+"""RGB of the merged map's agreement series: near white on the charts' dark
+background, apart from the pairs' colours."""
+TEAM_COLOUR = (235, 235, 235)
+"""RGB of the team's coverage and total path length (each robot's is in its colour)."""
+OVERLAP_COLOUR = (255, 215, 0)
+"""RGB of the overlap rate: a yellow no robot or pair is drawn in."""
 HEADING_RADII = 3.0
 """Length of the heading arrow in robot radii."""
 MIRROR_Y = rr.Transform3D(scale=[1.0, -1.0, 1.0])
@@ -376,7 +381,23 @@ class Recorder:
             )
             log(f"{robot_path(k)}/heading", heading, static=True)
             log(map_frame_path(k), MIRROR_Y, static=True)
+        self._style_team_series(session.count)
         self.log_step(session, None)
+
+    def _style_team_series(self, robots: int) -> None:
+        """Name the team's series and colour each robot's as the robot is drawn: unstyled,
+        the viewer picks colours of its own, and a robot's path length and the team's
+        total may share one."""
+        styles = {
+            COVERAGE: ("team coverage", TEAM_COLOUR),
+            OVERLAP_RATE: ("overlap rate", OVERLAP_COLOUR),
+            PATH_LENGTH_TOTAL: ("team total", TEAM_COLOUR),
+        }
+        for k in range(robots):
+            styles[robot_coverage_path(k)] = (f"{robot_name(k)} own map", robot_colour(k))
+            styles[path_length_path(k)] = (robot_name(k), robot_colour(k))
+        for path, (name, colour) in styles.items():
+            self.stream.log(path, rr.SeriesLines(colors=[colour], names=[name]), static=True)
 
     def log_step(self, session: TeamSession, merge: RoundQuality | None) -> None:
         """One step: poses, scans, coverage, changed maps and the merge round, if any."""
