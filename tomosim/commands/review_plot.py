@@ -4,12 +4,14 @@ Maps are drawn in the ROS map_server colours (occupied black, free white,
 unknown grey) in the world frame (metres, ``y`` up): the merged map is placed
 by its reference robot's true start pose, as recorded, so that any
 misalignment with the truth beside it shows. Errors are drawn on logarithmic
-axes: a wrong merge is off by metres, a right one by centimetres.
+axes (ticks at 1, 2 and 5 of each decade): a wrong merge is off by metres, a
+right one by centimetres. Each pair is in the colour the viewer draws it in.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +21,7 @@ from numpy.typing import NDArray
 from merging.grid import OccupancyGrid
 from tomosim.commands import CommandError
 from tomosim.recording import RecordedRun
-from tomosim.recording.paths import AGREEMENT, MERGED, MERGED_FRAME, TRUTH
+from tomosim.recording.paths import AGREEMENT, MERGED, MERGED_FRAME, TRUTH, pair_colour
 
 UNKNOWN_GREY = 205 / 255
 """Grey of unknown cells: map_server's 205."""
@@ -33,6 +35,15 @@ def grey_levels(grid: OccupancyGrid) -> NDArray[np.float64]:
     """Cell brightness in ``[0, 1]``: ``1 - p`` for known cells, :data:`UNKNOWN_GREY` else."""
     cells = grid.data.astype(np.float64)
     return np.where(cells < 0, UNKNOWN_GREY, 1.0 - cells / 100.0)
+
+
+def _pair_colour(name: str) -> tuple[float, float, float] | None:
+    """The colour the viewer draws pair ``name`` (``r0-r2``) in, as matplotlib takes it."""
+    robots = re.fullmatch(r"r(\d+)-r(\d+)", name)
+    if robots is None:
+        return None
+    red, green, blue = pair_colour(int(robots[1]), int(robots[2]))
+    return (red / 255, green / 255, blue / 255)
 
 
 def _draw_grid(
@@ -84,6 +95,7 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
     except ImportError as exc:
         raise CommandError(
             "the summary image needs matplotlib: python -m pip install matplotlib "
@@ -124,25 +136,33 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
             series = run.pair(name, quantity)
             keep = np.isfinite(series.values) & (series.values > 0)
             if np.any(keep):
-                ax.plot(series.steps[keep], series.values[keep], marker="o", ms=3, label=name)
+                colour = _pair_colour(name)
+                ax.plot(series.steps[keep], series.values[keep], marker="o", ms=3, label=name,
+                        color=colour)  # fmt: skip
                 drawn += 1
         ax.set_title(f"accepted merges: {label}", fontsize=10)
         ax.set_xlabel("step")
         if drawn:
             ax.set_yscale("log")
+            # Ticks at 1, 2 and 5 of each decade, written 0.05, not 5 x 10^-2.
+            ax.yaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+            ax.yaxis.set_minor_formatter(NullFormatter())
             ax.legend(fontsize=8)
         else:
             ax.text(0.5, 0.5, "no accepted merge", ha="center", va="center", transform=ax.transAxes)
         ax.grid(alpha=0.3)
     ax = axes["cov"]
     coverage = run.coverage
-    ax.plot(coverage.steps, coverage.values, label="team coverage")
+    # Greys, as the pairs' colours (the viewer's) mean pairs in the charts beside.
+    ax.plot(coverage.steps, coverage.values, color="0.45", label="team coverage")
     agreement = run.series.get(AGREEMENT)
     if agreement is not None and len(agreement.steps):
-        ax.plot(agreement.steps, agreement.values, marker="o", ms=3, label="merged-map agreement")
+        ax.plot(agreement.steps, agreement.values, marker="o", ms=3, color="black",
+                label="merged-map agreement")  # fmt: skip
     target = run.settings.get("coverage_target")
     if isinstance(target, float) and math.isfinite(target):
-        ax.axhline(target, color="grey", ls="--", lw=0.8)
+        ax.axhline(target, color="grey", ls="--", lw=0.8, label=f"coverage target {target:g}")
     ax.set_ylim(0, 1.02)
     ax.set_xlabel("step")
     ax.set_title("coverage and agreement with the truth", fontsize=10)
