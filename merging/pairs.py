@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from merging.api import as_generator
 from merging.grid import occupied_mask, validate_cells
 from merging.transforms import rigid_matrix, translation_matrix
 from merging.warp import warp_cells
@@ -99,10 +100,19 @@ def cut_window_pairs(
     Raises
     ------
     ValueError
-        If the map is too small or too empty to give such pairs.
+        If ``count`` is not a whole number >= 0, a range is not within
+        ``[0, 1]``, or the map is too small or too empty to give such pairs.
     """
     cells = validate_cells(whole, name="whole")
-    generator = np.random.default_rng(rng)
+    if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 0:
+        raise ValueError(f"count must be a whole number of pairs >= 0, got {count!r}")
+    for name, (low, high) in (("size_fraction", size_fraction), ("overlap_range", overlap_range)):
+        if not 0.0 <= low <= high <= 1.0:
+            raise ValueError(f"{name} must be (low, high) with 0 <= low <= high <= 1, got "
+                             f"{(low, high)}")  # fmt: skip
+    if window is not None and min(window) < 1:
+        raise ValueError(f"window must be (rows, cols) of at least one cell, got {window}")
+    generator = as_generator(rng)
     known = cells >= 0
     occupied = occupied_mask(cells)
     rows_k, cols_k = np.nonzero(known)

@@ -115,6 +115,21 @@ def test_window_pairs_of_real_maps(maps_folder) -> None:
     assert right >= total - 1
 
 
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"count": -2}, "count must be a whole number"),
+        ({"count": 2.5}, "count must be a whole number"),
+        ({"count": 1, "overlap_range": (0.5, 0.2)}, "overlap_range must be"),
+        ({"count": 1, "size_fraction": (0.3, 1.5)}, "size_fraction must be"),
+    ],
+)
+def test_window_pairs_refuse_impossible_requests_at_once(building, options, message) -> None:
+    # A negative count was never reached: the search ran its 20000 tries, keeping pairs.
+    with pytest.raises(ValueError, match=message):
+        cut_window_pairs(building, **options)
+
+
 def test_real_map_turned_by_known_angles(maps_folder) -> None:
     whole = merging.load_map(maps_folder / "intel.yaml").data
     for degrees in (-150.0, 65.0):
