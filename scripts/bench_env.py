@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import argparse
 import cProfile
+import importlib.util
 import pstats
 import statistics
 import time
@@ -62,6 +63,7 @@ from typing import Any
 import numpy as np
 
 from envs import multi_robot_exploration_v0 as exploration
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 
 try:
     from tomosim.team.worker import WorkerSearches
@@ -254,20 +256,24 @@ def profile(steps: int, top: int) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", type=int, nargs="+", default=[3, 8])
-    parser.add_argument("--steps", type=int, default=300, help="timed joint steps per run")
-    parser.add_argument("--repeats", type=int, default=9, help="runs per configuration")
+    parser.add_argument("--robots", type=positive_int, nargs="+", default=[3, 8])
+    parser.add_argument("--steps", type=positive_int, default=300, help="timed joint steps per run")
+    parser.add_argument("--repeats", type=positive_int, default=9, help="runs per configuration")
     parser.add_argument(
         "--vector",
-        type=int,
+        type=positive_int,
         nargs="*",
         default=[],
         help="numbers K of environments to step in parallel (needs the rl extra)",
     )
     parser.add_argument("--no-merge", action="store_true", help="also time merging off")
-    parser.add_argument("--profile", type=int, default=0, help="profile this many steps")
-    parser.add_argument("--top", type=int, default=40, help="functions the profile lists")
+    parser.add_argument(
+        "--profile", type=non_negative_int, default=0, help="profile this many steps"
+    )
+    parser.add_argument("--top", type=positive_int, default=40, help="functions the profile lists")
     args = parser.parse_args()
+    if args.vector and importlib.util.find_spec("supersuit") is None:  # before the long tables
+        parser.error('--vector needs the rl extra: python -m pip install -e ".[rl]"')
     if args.profile:
         profile(args.profile, args.top)
         return
@@ -291,4 +297,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main, __file__)

@@ -28,17 +28,18 @@ from scipy import ndimage
 import merging
 from merging.grid import occupied_mask
 from merging.verify import dilate
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import positive_int, run_script
+from tomosim.data import maps_dir, maps_missing
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--map", default="aces3")
-    parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--repeats", type=positive_int, default=20)
     args = parser.parse_args(argv)
     folder = maps_dir()
     if folder is None:
-        print("error: the real maps folder was not found; set TOMOSIM_MAPS to it", file=sys.stderr)
+        print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
     mask = occupied_mask(merging.load_map(folder / f"{args.map}.yaml").data)
     print(f"{args.map}: {mask.shape[0]} x {mask.shape[1]} cells, {int(mask.sum())} occupied")
@@ -67,4 +68,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

@@ -43,7 +43,8 @@ import numpy as np
 import merging
 from merging.metrics import matching_index, transform_error
 from merging.pairs import cut_window_pairs
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.data import maps_dir, maps_missing
 
 DEFAULT_MAPS = ("aces3", "intel", "fr079", "brsu_c069")
 DEFAULT_METHODS = ("tomographic", "paper")
@@ -280,18 +281,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--maps", nargs="+", default=list(DEFAULT_MAPS))
     parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
-    parser.add_argument("--pairs-per-map", type=int, default=30)
+    parser.add_argument("--pairs-per-map", type=positive_int, default=30)
     parser.add_argument(
-        "--sizes", nargs="*", type=int, default=[200, 400, 800, 1600, 2400, 3200, 4000]
+        "--sizes", nargs="*", type=positive_int, default=[200, 400, 800, 1600, 2400, 3200, 4000]
     )
     parser.add_argument("--scaling-methods", nargs="*", default=list(SCALING_METHODS))
-    parser.add_argument("--size-repeats", type=int, default=5)
-    parser.add_argument("--seed", type=int, default=2020)
+    parser.add_argument("--size-repeats", type=positive_int, default=5)
+    parser.add_argument("--seed", type=non_negative_int, default=2020)
     parser.add_argument("--out", type=Path, default=Path("results/bench_merge"))
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     args = parser.parse_args(argv)
     if maps_dir() is None:
-        print("error: the real maps folder was not found; set TOMOSIM_MAPS to it", file=sys.stderr)
+        print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
     unknown = sorted(set(args.methods + args.scaling_methods) - set(merging.available_methods()))
     if unknown:
@@ -348,4 +349,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

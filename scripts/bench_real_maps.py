@@ -60,7 +60,8 @@ import merging
 from merging.metrics import transform_error
 from merging.pairs import cut_window_pairs
 from merging.transforms import rigid_matrix
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import non_negative_int, run_script
+from tomosim.data import maps_dir, maps_missing
 
 DEFAULT_METHODS = ("tomographic", "orb", "sift", "ros_akaze", "ros_orb")
 OPENCV_METHODS = ("ros_akaze", "ros_orb")
@@ -298,11 +299,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--pairs-per-map", type=int, default=None,
                         help="window pairs per map (whole: 10, low-overlap: 75)")  # fmt: skip
     parser.add_argument("--every", type=int, default=1, help="sessions: every n-th E5 pair")
-    parser.add_argument("--seed", type=int, default=2026)
+    parser.add_argument("--seed", type=non_negative_int, default=2026)
     parser.add_argument("--out", type=Path, default=Path("results/bench_real_maps"))
     args = parser.parse_args(argv)
     if maps_dir() is None:
-        print("error: the real maps folder was not found; set TOMOSIM_MAPS to it", file=sys.stderr)
+        print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
     unknown = sorted(set(args.methods) - set(merging.available_methods()))
     if unknown:
@@ -334,4 +335,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

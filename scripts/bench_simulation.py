@@ -28,6 +28,7 @@ import time
 
 import numpy as np
 
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 from tomosim.evaluation import coverage
 from tomosim.exploration import FrontierPolicy
 from tomosim.lidar import LidarConfig
@@ -125,19 +126,19 @@ def explore(seed: int, budget: int, checkpoints: list[int]) -> tuple[list[float]
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", type=int, nargs="+", default=[1, 3, 8])
-    parser.add_argument("--steps", type=int, default=300, help="timed steps per run")
-    parser.add_argument("--repeats", type=int, default=5, help="runs per robot count")
-    parser.add_argument("--beams", type=int, default=360)
-    parser.add_argument("--scans", type=int, default=200, help="scans for the lidar table")
+    parser.add_argument("--robots", type=positive_int, nargs="+", default=[1, 3, 8])
+    parser.add_argument("--steps", type=positive_int, default=300, help="timed steps per run")
+    parser.add_argument("--repeats", type=positive_int, default=5, help="runs per robot count")
+    parser.add_argument("--beams", type=positive_int, default=360)
+    parser.add_argument("--scans", type=positive_int, default=200, help="scans for the lidar table")
     parser.add_argument(
         "--explore",
-        type=int,
+        type=non_negative_int,
         nargs="*",
         default=[],
         help="floor seeds for the exploration table (none: skip it)",
     )
-    parser.add_argument("--budget", type=int, default=3000, help="exploration steps")
+    parser.add_argument("--budget", type=positive_int, default=3000, help="exploration steps")
     args = parser.parse_args()
     world = generate_floorplan(WORLD_SEED)
     print(
@@ -170,4 +171,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main, __file__)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +33,8 @@ from merging.metrics import transform_error
 from merging.pairs import cut_window_pairs
 from merging.transforms import matrix_to_pose, wrap_angle
 from merging.verify import ACCEPT_CONFIDENCE
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.data import maps_dir, maps_missing
 from tomosim.episode import EpisodeConfig, load_world
 from tomosim.exploration import FrontierPolicy
 from tomosim.frames import pose_matrix
@@ -57,7 +57,7 @@ FIELDS = ("kind", "source", "right", "accepted", "confidence", "error")
 def window_rows(names: list[str], count: int, seed: int):
     folder = maps_dir()
     if folder is None:
-        raise SystemExit("error: the real maps folder was not found; set TOMOSIM_MAPS")
+        raise SystemExit(f"error: {maps_missing()}")
     for name in names:
         whole = merging.load_map(folder / f"{name}.yaml")
         for index, pair in enumerate(cut_window_pairs(whole.data, count=count, rng=seed)):
@@ -98,11 +98,13 @@ def episode_rows(worlds: list[int]):
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--maps", nargs="+", default=["aces3", "intel", "fr079", "brsu_c069"])
-    parser.add_argument("--pairs-per-map", type=int, default=40)
-    parser.add_argument("--window-seed", type=int, default=11)
-    parser.add_argument("--worlds", nargs="+", type=int, default=[6, 7, 8, 9])
+    parser.add_argument("--pairs-per-map", type=positive_int, default=40)
+    parser.add_argument("--window-seed", type=non_negative_int, default=11)
+    parser.add_argument("--worlds", nargs="+", type=non_negative_int, default=[6, 7, 8, 9])
     parser.add_argument("--out", type=Path, default=Path("results/calibrate_confidence.csv"))
     args = parser.parse_args(argv)
+    if maps_dir() is None:  # before the results file is emptied
+        parser.error(maps_missing())
     args.out.parent.mkdir(parents=True, exist_ok=True)
     summary: dict[str, dict[str, float]] = {}
     with args.out.open("w", newline="") as handle:
@@ -134,4 +136,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

@@ -11,7 +11,7 @@ whether their verdicts changed (exit status 1 when any differ).
 The pairs are those of the benchmarks: ``paper``, the section 4.1 protocol of
 ``bench_merge.py`` (50 pairs per map, seed 2020), and ``low-overlap``,
 ``whole`` and ``sessions`` of ``bench_real_maps.py`` (seed 2026). All four
-take about a minute on one core.
+take about 30 s (one process, on the 2-core machine of the README's figures).
 
 Usage::
 
@@ -37,7 +37,8 @@ import numpy as np
 
 import merging
 from merging.pairs import cut_window_pairs
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import run_script
+from tomosim.data import maps_dir, maps_missing
 
 SUITES = ("paper", "low-overlap", "whole", "sessions")
 PAPER_PAIRS_PER_MAP = 50
@@ -127,13 +128,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.limit is not None and args.limit < 1:
         parser.error(f"--limit must be at least 1, got {args.limit}")
     if maps_dir() is None:
-        parser.error("the real maps were not found: set TOMOSIM_MAPS or put ../shared/maps beside")
+        parser.error(maps_missing())
     reference: dict[tuple[str, str], dict[str, Any]] = {}
     if args.compare is not None:
         if not args.compare.is_file():
             parser.error(f"--compare {args.compare}: no such file; write one with --out first")
-        for line in args.compare.read_text().splitlines():
-            entry = json.loads(line)
+        for number, line in enumerate(args.compare.read_text().splitlines(), start=1):
+            try:
+                entry = json.loads(line)
+            except json.JSONDecodeError:
+                parser.error(f"--compare {args.compare}, line {number}: not a record this "
+                             "script wrote with --out")  # fmt: skip
             reference[(entry["suite"], entry["pair"])] = entry
     handle = open(args.out, "w") if args.out is not None else None  # noqa: SIM115
     same = differ = missing = 0
@@ -166,4 +171,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

@@ -20,7 +20,8 @@ import numpy as np
 import merging
 from merging.metrics import transform_error
 from merging.pairs import cut_window_pairs
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import non_negative_int, run_script
+from tomosim.data import maps_dir, maps_missing
 from tomosim.worlds import generate_floorplan
 
 GREY = {-1: 0.75, 0: 1.0, 100: 0.0}
@@ -37,9 +38,11 @@ def shade(cells: np.ndarray) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--floor", type=int, default=3, help="generated floor-plan seed")
+    parser.add_argument(
+        "--floor", type=non_negative_int, default=3, help="generated floor-plan seed"
+    )
     parser.add_argument("--map", help="a real map of the shared folder, instead of a floor")
-    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--seed", type=non_negative_int, default=7)
     parser.add_argument("--out", type=Path, default=Path("docs/figures/merge_example.png"))
     args = parser.parse_args(argv)
     try:
@@ -55,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         folder = maps_dir()
         if folder is None:
-            print("error: the real maps folder was not found; set TOMOSIM_MAPS", file=sys.stderr)
+            print(f"error: {maps_missing()}", file=sys.stderr)
             return 1
         whole = merging.load_map(folder / f"{args.map}.yaml")
     pair = cut_window_pairs(whole.data, count=1, rng=args.seed)[0]
@@ -88,4 +91,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

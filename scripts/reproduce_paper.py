@@ -51,7 +51,8 @@ from paper_comparison.runner import run_groups
 from paper_comparison.study import Study
 from paper_comparison.tables import markdown_tables, verdict_lines
 
-from tomosim.data import maps_dir
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.data import maps_dir, maps_missing
 
 HALMSTAD_FLOORS = ("E5", "F5", "HIH", "KPT4A")
 """The halmstad data set's floors, each mapped in several sessions."""
@@ -61,15 +62,23 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """The command line's options (``argv`` None reads ``sys.argv``)."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--sim-maps", nargs="+", default=["aces3"], help="maps of the Sim. row")
-    parser.add_argument("--sim-pairs", type=int, default=100, help="window pairs per Sim. map")
+    parser.add_argument(
+        "--sim-pairs", type=positive_int, default=100, help="window pairs per Sim. map"
+    )
     parser.add_argument("--extra-maps", nargs="*", default=["intel"], help="extra Sim. rows")
-    parser.add_argument("--extra-pairs", type=int, default=10, help="pairs per extra map")
-    parser.add_argument("--ap-hill-poses", type=int, default=2, help="random poses per pair")
+    parser.add_argument("--extra-pairs", type=positive_int, default=10, help="pairs per extra map")
+    parser.add_argument(
+        "--ap-hill-poses", type=positive_int, default=2, help="random poses per pair"
+    )
     parser.add_argument("--halmstad-floor", default="E5", choices=list(HALMSTAD_FLOORS))
-    parser.add_argument("--halmstad-sessions", type=int, default=5, help="sessions (all pairs)")
-    parser.add_argument("--halmstad-scale", type=int, default=2, help="cells per coarse cell")
+    parser.add_argument(
+        "--halmstad-sessions", type=positive_int, default=5, help="sessions (all pairs)"
+    )
+    parser.add_argument(
+        "--halmstad-scale", type=positive_int, default=2, help="cells per coarse cell"
+    )
     parser.add_argument("--methods", nargs="+", default=[c.key for c in CONTENDERS])
-    parser.add_argument("--seed", type=int, default=2020)
+    parser.add_argument("--seed", type=non_negative_int, default=2020)
     parser.add_argument("--out", type=Path, default=Path("results/paper"))
     parser.add_argument("--docs", type=Path, default=Path("docs"))
     parser.add_argument("--no-docs", action="store_true", help="do not write into --docs")
@@ -92,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     start = time.perf_counter()
     if maps_dir() is None:
-        print("error: the real maps folder was not found; set TOMOSIM_MAPS to it", file=sys.stderr)
+        print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
     problem = methods_problem(args.methods)
     if problem is not None:
@@ -166,4 +175,4 @@ def write_reports(
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

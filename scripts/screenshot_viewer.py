@@ -28,10 +28,15 @@ import tempfile
 import time
 from pathlib import Path
 
+from tomosim.commands import check_writable
+from tomosim.commands.script_args import positive_int, run_script
+
 WINDOW_SIZE = "1600x1000"
 """Logical size of the viewer's window; the PNG has twice as many pixels a side."""
 DEFAULT_PORT = 9871
 """gRPC port of the headless viewer; not rerun's default 9876, to leave a user's viewer alone."""
+MAX_PORT = 65535
+"""The highest TCP port number."""
 START_TIMEOUT_S = 60.0
 """Longest wait for the viewer to start listening."""
 LOAD_TIMEOUT_S = 120.0
@@ -158,8 +163,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--recording", type=Path, help="a .rrd file (default: record one)")
     parser.add_argument("--out", type=Path, default=Path("docs/figures/viewer.png"))
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's gRPC port")
+    parser.add_argument(
+        "--port", type=positive_int, default=DEFAULT_PORT, help="the viewer's gRPC port"
+    )
     args = parser.parse_args(argv)
+    if args.port > MAX_PORT:
+        parser.error(f"--port must be at most {MAX_PORT}, got {args.port}")
+    if args.recording is not None and not args.recording.is_file():  # not a wait for the viewer
+        parser.error(f"--recording {args.recording}: no such file")
+    check_writable(args.out, option="--out")  # before the run and the viewer, not after
     with tempfile.TemporaryDirectory(prefix="tomosim-shot-") as folder:
         recording = args.recording or record_default_run(Path(folder))
         try:
@@ -171,4 +183,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_script(main, __file__)

@@ -54,6 +54,7 @@ from exploration_study.runs import Grid, progress, read_rows, run_world
 from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
 from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
 
+from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
 
@@ -164,26 +165,30 @@ def main(argv: list[str] | None = None) -> int:
         "--worlds", nargs="+", default=list(DEFAULT_WORLDS),
         help="generated floor seeds, names of shared maps or YAML files",
     )  # fmt: skip
-    parser.add_argument("--robots", nargs="+", type=int, default=list(ROBOTS))
+    parser.add_argument("--robots", nargs="+", type=positive_int, default=list(ROBOTS))
     parser.add_argument("--policies", nargs="+", default=list(chooser_names()))
     parser.add_argument(
         "--policy", default=DEFAULT_POLICY,
         help=f"the policy the tables and checks are about (default {DEFAULT_POLICY})",
     )  # fmt: skip
     parser.add_argument("--methods", nargs="+", default=list(METHODS))
-    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
+    parser.add_argument("--seeds", nargs="+", type=non_negative_int, default=list(SEEDS))
     parser.add_argument("--steps", type=int, help="step cap of every world (default: per world)")
     parser.add_argument(
-        "--comm-ranges", nargs="*", type=float, default=list(COMM_RANGES), metavar="METRES",
+        "--comm-ranges", nargs="*", type=positive_float, default=list(COMM_RANGES),
+        metavar="METRES",
         help="communication ranges of the fourth stage (default: 10 5; none: skip it)",
     )  # fmt: skip
     parser.add_argument("--executor", choices=EXECUTORS, default="process")
-    parser.add_argument("--workers", type=int, help="local processes (default: all cores)")
+    parser.add_argument("--workers", type=positive_int, help="local processes (default: all cores)")
     parser.add_argument("--out", type=Path, default=OUTPUT, help="folder of the outputs")
     parser.add_argument("--report-only", action="store_true", help="run nothing, only report")
     args = parser.parse_args(argv)
     if args.steps is not None and args.steps < 1:
         parser.error(f"--steps must be at least 1, got {args.steps}")
+    unknown = [p for p in (*args.policies, args.policy) if p not in chooser_names()]
+    if unknown:
+        parser.error(f"unknown policy {unknown[0]!r}; choose from {', '.join(chooser_names())}")
     worlds = [resolve(token, args.steps) for token in args.worlds]
     grid = Grid(
         tuple(args.robots),
@@ -204,4 +209,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

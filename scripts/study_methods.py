@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.episode import load_world
 from tomosim.sweep import EXECUTORS, ResultsFile, SweepPlan, run_sweep
 
 METHODS = ("tomographic", "paper", "harris", "none")
@@ -98,17 +100,22 @@ def plot(rows: list[dict[str, str]], methods: tuple[str, ...], robots: tuple[int
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--world", default="0", help="a floor-plan seed or a map_server YAML")
-    parser.add_argument("--robots", nargs="+", type=int, default=[2, 3, 4])
+    parser.add_argument("--robots", nargs="+", type=positive_int, default=[2, 3, 4])
     parser.add_argument("--methods", nargs="+", default=list(METHODS))
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1])
-    parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--seeds", nargs="+", type=non_negative_int, default=[0, 1])
+    parser.add_argument("--steps", type=positive_int, default=2000)
     parser.add_argument("--executor", choices=EXECUTORS, default="process")
-    parser.add_argument("--workers", type=int)
+    parser.add_argument("--workers", type=positive_int)
     parser.add_argument("--resume", action="store_true")
     parser.add_argument("--out", type=Path, default=Path("docs/figures/study_methods"))
     args = parser.parse_args(argv)
     plan = SweepPlan(worlds=(args.world,), robots=tuple(args.robots), methods=tuple(args.methods),
                      seeds=tuple(args.seeds), steps=args.steps)  # fmt: skip
+    try:  # a bad seed or world is refused before earlier results are removed
+        plan.episodes()
+        load_world(args.world)
+    except (ValueError, FileNotFoundError, TypeError) as error:
+        parser.error(str(error))
     csv_path = args.out.with_suffix(".csv")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     if csv_path.exists() and not args.resume:
@@ -128,4 +135,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(main, __file__)

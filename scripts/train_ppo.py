@@ -43,6 +43,7 @@ import numpy as np
 from envs import multi_robot_exploration_v0 as exploration
 from envs.baselines import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.vector import RL_INSTALL, make_sb3_vector_env
+from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
 
 EVALUATION_SEED = 10_000
 """Evaluation episode ``e`` is ``reset(seed=EVALUATION_SEED + e)`` on held-out floors."""
@@ -203,16 +204,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--timesteps", type=int, required=True, help="agent-steps of training")
     parser.add_argument("--out", type=Path, default=Path("results/ppo"), help="output folder")
-    parser.add_argument("--envs", type=int, default=2, help="environments stepped together")
-    parser.add_argument("--processes", type=int, default=0, help="worker processes for them")
-    parser.add_argument("--robots", type=int, default=3)
-    parser.add_argument("--max-cycles", type=int, default=300, help="steps per episode")
-    parser.add_argument("--world-size", type=float, nargs=2, default=None, metavar=("W", "H"))
-    parser.add_argument("--n-steps", type=int, default=128, help="PPO rollout steps per entry")
-    parser.add_argument("--batch-size", type=int, default=256)
-    parser.add_argument("--epochs", type=int, default=4, help="PPO epochs per rollout")
-    parser.add_argument("--eval-episodes", type=int, default=5, help="held-out episodes")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--envs", type=positive_int, default=2, help="environments stepped together"
+    )
+    parser.add_argument(
+        "--processes", type=non_negative_int, default=0, help="worker processes for them"
+    )
+    parser.add_argument("--robots", type=positive_int, default=3)
+    parser.add_argument("--max-cycles", type=positive_int, default=300, help="steps per episode")
+    parser.add_argument(
+        "--world-size", type=positive_float, nargs=2, default=None, metavar=("W", "H")
+    )
+    parser.add_argument(
+        "--n-steps", type=positive_int, default=128, help="PPO rollout steps per entry"
+    )
+    parser.add_argument("--batch-size", type=positive_int, default=256)
+    parser.add_argument("--epochs", type=positive_int, default=4, help="PPO epochs per rollout")
+    parser.add_argument("--eval-episodes", type=positive_int, default=5, help="held-out episodes")
+    parser.add_argument("--seed", type=non_negative_int, default=0)
     parser.add_argument("--smoke", action="store_true", help="tiny settings, for tests")
     args = parser.parse_args()
     if args.timesteps < 1:
@@ -284,4 +293,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(main, __file__)

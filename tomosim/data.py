@@ -61,6 +61,22 @@ def maps_dir() -> Path | None:
     return shared / "maps"
 
 
+def maps_missing() -> str:
+    """Why :func:`maps_dir` found no maps folder, and what to do, in one line."""
+    maps_env, shared_env = os.environ.get(MAPS_ENV), os.environ.get(SHARED_ENV)
+    if maps_env:
+        return f"{MAPS_ENV}={maps_env} is not a folder; set it to the folder of the real maps"
+    if shared_env:
+        return (
+            f"{SHARED_ENV}={shared_env} holds no maps folder; set it to the shared data "
+            f"folder (holding maps/), or set {MAPS_ENV} to the maps folder itself"
+        )
+    return (
+        f"the real maps folder was not found: set {MAPS_ENV} to it, or keep the shared "
+        f"data folder ({SHARED_NAME}/, holding maps/) beside the checkout"
+    )
+
+
 def datasets_dir() -> Path | None:
     """The folder of lidar logs (``carmen/*.log.gz``), or ``None`` when absent."""
     shared = shared_dir()

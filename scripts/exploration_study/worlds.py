@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from tomosim.data import maps_dir
+from tomosim.data import maps_dir, maps_missing
 from tomosim.episode import EpisodeConfig
 
 DEFAULT_WORLDS = ("0", "1", "2", "aces3", "fr079")
@@ -58,9 +58,7 @@ def resolve(token: str, steps: int | None = None) -> StudyWorld:
     else:
         folder = maps_dir()
         if folder is None:
-            raise SystemExit(
-                f"world {token!r}: the shared maps folder was not found; set TOMOSIM_MAPS"
-            )
+            raise SystemExit(f"world {token!r}: {maps_missing()}")
         path = folder / f"{token}.yaml"
     if not path.is_file():
         raise SystemExit(f"world {token!r}: no map file {path}")

@@ -33,7 +33,7 @@ from merging.grid import FREE, OCCUPIED, UNKNOWN, free_mask, occupied_mask
 from merging.pairs import cut_window_pairs
 from merging.transforms import rigid_matrix, translation_matrix
 from merging.warp import warp_cells
-from tomosim.data import maps_dir
+from tomosim.data import maps_dir, maps_missing
 
 from .references import robot_references
 from .study import Case, Study, Tolerance
@@ -120,7 +120,7 @@ def shared_maps() -> Path:
     """The folder of real maps (``main`` checks that it exists before any case is built)."""
     folder = maps_dir()
     if folder is None:
-        raise FileNotFoundError("the real maps folder was not found; set TOMOSIM_MAPS to it")
+        raise FileNotFoundError(maps_missing())
     return folder
 
 
