@@ -38,7 +38,7 @@ Usage::
     python scripts/bench_real_maps.py sessions
     python scripts/bench_real_maps.py whole --pairs-per-map 10
     python scripts/bench_real_maps.py low-overlap --pairs-per-map 75
-    python scripts/bench_real_maps.py sessions --methods tomographic --every 4   # a quick look
+    python scripts/bench_real_maps.py sessions --methods tomographic --every 3   # a quick look
 """
 
 from __future__ import annotations
@@ -298,7 +298,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
     parser.add_argument("--pairs-per-map", type=int, default=None,
                         help="window pairs per map (whole: 10, low-overlap: 75)")  # fmt: skip
-    parser.add_argument("--every", type=int, default=1, help="sessions: every n-th E5 pair")
+    parser.add_argument(
+        "--every",
+        type=int,
+        default=1,
+        help="sessions: every n-th E5 pair (an odd n keeps both the even and the odd half)",
+    )
     parser.add_argument("--seed", type=non_negative_int, default=2026)
     parser.add_argument("--out", type=Path, default=Path("results/bench_real_maps"))
     args = parser.parse_args(argv)

@@ -82,7 +82,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--out", type=Path, default=Path("results/paper"))
     parser.add_argument("--docs", type=Path, default=Path("docs"))
     parser.add_argument("--no-docs", action="store_true", help="do not write into --docs")
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.halmstad_sessions < 2:
+        parser.error(
+            f"--halmstad-sessions must be at least 2 (a pair), got {args.halmstad_sessions}"
+        )
+    return args
 
 
 def methods_problem(methods: list[str]) -> str | None:

@@ -31,7 +31,7 @@ ROW_DESCRIPTIONS = {
     "among those that a method of another family (tomographic, paper, spectral, features, "
     "registration) agrees with; pairs on which no two families agree are not judged. For "
     "the default run the overlays of the references "
-    "(results/paper/halmstad_references.png) were checked by eye: "
+    "(halmstad_references.png in the run's --out folder) were checked by eye: "
     "each lays the hall, the corridor and the wings of the two sessions on each other, "
     "with up to about half a metre of bending between sessions. Success there means "
     "agreeing with that reference, so the row measures agreement more than accuracy.",

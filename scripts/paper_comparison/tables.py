@@ -46,7 +46,8 @@ def markdown_tables(study: Study, contenders: Sequence[Contender]) -> str:
     for row in rows:
         means = [f"{stats[(row, c.key)].psi_mean:.4f}" for c in contenders]
         stds = [f"{stats[(row, c.key)].psi_std:.4f}" for c in contenders]
-        lines += _avg_std(f"{row} ({counts[row]} pairs)", means, stds)
+        pairs = "1 pair" if counts[row] == 1 else f"{counts[row]} pairs"
+        lines += _avg_std(f"{row} ({pairs})", means, stds)
     for group in ("Sim.", "Exp."):
         lines += _paper_row(PAPER_MATCHING[group], contenders, group)
     truth = {row: truth_matching(study, row) for row in rows}
@@ -110,7 +111,7 @@ def verdict_lines(study: Study, contenders: Sequence[Contender]) -> list[str]:
         elif level:
             lines.append(
                 f"* **{row}: the tomographic method ({ours:.0%}) does not beat every baseline: "
-                f"{', '.join(level)} do as well.**"
+                f"{', '.join(level)} {'does' if len(level) == 1 else 'do'} as well.**"
             )
         else:
             lines.append(f"* {row}: the tomographic method ({ours:.0%}) beats every baseline.")
