@@ -277,7 +277,7 @@ def checks(
             "no accepted wrong merge in the study",
             f"{gross} false matches (> 5 deg or > 1 m; {used} of them confirmed) and {strict} "
             f"beyond 2 deg / 0.2 m among {accepted} accepted estimates, {episodes} episodes",
-            gross == 0,
+            gross == 0 if episodes else None,  # no episode: nothing was checked
         )
     )
     return out
