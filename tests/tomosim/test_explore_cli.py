@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -383,6 +384,10 @@ def test_sigterm_stops_explore_cleanly(tmp_path: Path, capsys: pytest.CaptureFix
     assert report["status"].startswith("did not finish: interrupted at step")
     assert report["status"].endswith("SIGTERM")
     assert 0 < report["steps"] < 1500
+    # The message and the recording name the same last step.
+    said = re.search(r"up to step (\d+)", line[0])
+    recorded = re.search(r"interrupted at step (\d+)", report["status"])
+    assert said is not None and recorded is not None and said[1] == recorded[1]
 
 
 def test_review_marks_a_killed_run_unfinished_and_reads_it(

@@ -249,7 +249,10 @@ def run(args: argparse.Namespace) -> int:
         progress.close()
         interrupt = stop_behind(exc)
         if interrupt is not None:
-            stopped = Stopped.of(interrupt, kept(config.record, progress.done))
+            # The recording's own last step: the signal may land after a step was logged
+            # and before the progress line heard of it.
+            step = recorder.last_step if recorder is not None else progress.done
+            stopped = Stopped.of(interrupt, kept(config.record, step))
             if recorder is not None:
                 recorder.log_interrupted(stopped.why)
                 _close_quietly(recorder)

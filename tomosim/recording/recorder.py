@@ -513,6 +513,11 @@ class Recorder:
         ended = f"{STATUS_FINISHED} at step {session.steps}"
         self.log_status(f"{ended}: {reason}" if reason else ended)
 
+    @property
+    def last_step(self) -> int:
+        """The step of the latest state logged (what the recording keeps the run up to)."""
+        return self._step
+
     def log_interrupted(self, why: str) -> None:
         """``run/status`` "interrupted at step N: why" (the run was stopped from outside)."""
         self.log_status(f"interrupted at step {self._step}: {why}")
