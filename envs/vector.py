@@ -24,6 +24,8 @@ SuperSuit and Stable-Baselines3 come with the ``rl`` extra
 
 from __future__ import annotations
 
+import atexit
+import weakref
 from typing import Any
 
 import gymnasium
@@ -59,7 +61,9 @@ def make_supersuit_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -
     -------
     gymnasium.vector.VectorEnv
         ``num_envs = K * N``: robot ``k`` of environment ``e`` is entry ``e * N + k``.
-        ``reset(seed=s)`` seeds environment ``e`` with ``s + e``.
+        ``reset(seed=s)`` seeds environment ``e`` with ``s + e``, however many
+        processes step them. Close it when done; worker processes left open are
+        closed when the interpreter exits.
     """
     if not (isinstance(envs, int) and envs >= 1):
         raise ValueError(f"envs must be a whole number >= 1, got {envs!r}")
@@ -67,7 +71,53 @@ def make_supersuit_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -
         raise ValueError(f"processes must be a whole number >= 0, got {processes!r}")
     supersuit = _supersuit()
     robots = supersuit.pettingzoo_env_to_vec_env_v1(parallel_env(**kwargs))
-    return supersuit.concat_vec_envs_v1(robots, envs, num_cpus=processes, base_class="gymnasium")
+    venv = supersuit.concat_vec_envs_v1(robots, envs, num_cpus=processes, base_class="gymnasium")
+    if hasattr(venv, "pipes"):  # SuperSuit's process vector env
+        _seed_per_environment(venv, robots.num_envs)
+        _close_at_exit(venv)
+    return venv
+
+
+def _seed_per_environment(venv: Any, robots: int) -> None:
+    """Give a process vector env's reset the seeds and infos of the in-process one.
+
+    SuperSuit's ``ProcConcatVec.reset(seed=s)`` sends ``s + p`` to process
+    ``p``, which seeds its ``k``-th environment with ``s + p + k``: with two
+    processes of two environments each, environments 1 and 2 both got
+    ``s + 1`` and ran the same episode. Here process ``p`` is sent ``s`` plus
+    the index of its first environment, so environment ``e`` gets ``s + e``
+    as in one process; and the reset's infos, which came back as one packed
+    list per process, are one dictionary per robot, as ``step``'s are.
+    """
+    from supersuit.vector.multiproc_vec import decompress_info, numpy_deepcopy
+
+    firsts = [start // robots for start in venv.idx_starts[:-1]]
+
+    def reset(seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        for pipe, first in zip(venv.pipes, firsts, strict=True):
+            pipe.send(("reset", (None if seed is None else seed + first, options)))
+        compressed = venv._receive_info()  # per process: (robot, info) of non-empty infos
+        infos = decompress_info(venv.num_envs, venv.idx_starts, compressed)
+        return numpy_deepcopy(venv.observations_buffers), [dict(info) for info in infos]
+
+    venv.reset = reset
+
+
+def _close_at_exit(venv: Any) -> None:
+    """Close ``venv``'s worker processes when the interpreter exits, if the caller has not.
+
+    They are not daemons, so Python's exit would wait for them for ever; this
+    hook runs before multiprocessing's own (exit hooks run last registered
+    first), and holds only a weak reference.
+    """
+    alive = weakref.ref(venv)
+
+    def close() -> None:
+        still = alive()
+        if still is not None:
+            still.close()
+
+    atexit.register(close)
 
 
 def make_sb3_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -> Any:

@@ -126,6 +126,32 @@ def test_supersuit_vector_env_steps_every_robot_of_every_env() -> None:
 
 
 @needs_rl
+def test_environments_in_processes_get_their_own_seeds_and_let_python_exit() -> None:
+    # SuperSuit seeded process p's k-th environment with s + p + k: with two processes
+    # of two, environments 1 and 2 both got s + 1 and ran the same episode. And its
+    # workers are not daemons: a script that did not close the vector env never exited.
+    script = (
+        "import numpy as np\n"
+        "from envs import multi_robot_exploration_v0 as exploration\n"
+        "from envs.vector import make_supersuit_vector_env\n"
+        f"small = {SMALL!r}\n"
+        "venv = make_supersuit_vector_env(4, processes=2, **small)\n"
+        "observations, infos = venv.reset(seed=7)\n"
+        "assert len(infos) == venv.num_envs and all(isinstance(i, dict) for i in infos)\n"
+        "for e in range(4):\n"
+        "    alone, _ = exploration.parallel_env(**small).reset(seed=7 + e)\n"
+        "    robots = len(alone)\n"
+        "    assert np.array_equal(observations['scan'][e * robots], alone['robot_0']['scan']), e\n"
+        "print('seeded')\n"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert run.stdout.strip() == "seeded"
+
+
+@needs_rl
 def test_sb3_adapter_seeds_marks_truncation_and_keeps_final_infos() -> None:
     from envs.vector import make_sb3_vector_env
 
