@@ -18,7 +18,8 @@ the policy and three baselines run the same episodes on held-out floors
 The output folder holds ``learning_curve.csv`` (one row per finished training
 episode, written as they finish), ``learning_curve.png``, ``summary.json``
 (per policy: mean episode return per robot and mean final team coverage,
-with each episode's figures) and ``model.zip``.
+with each episode's figures) and ``model.zip``. A folder that already holds
+any of them is refused, so that a rerun never mixes two runs' files.
 
 Usage::
 
@@ -52,6 +53,8 @@ CONSTANT_ACTIONS = [(linear, angular) for linear in (0.5, 1.0) for angular in (0
 on random floors, so only left turns are tried)."""
 CURVE_WINDOW = 20
 """Episodes in the rolling mean of the learning curve's plot."""
+OUTPUTS = ("learning_curve.csv", "learning_curve.png", "summary.json", "model.zip")
+"""What a run writes into ``--out``; a folder holding any of them is refused."""
 
 Agents = Callable[[Any, dict[str, dict[str, Any]]], dict[str, Any]]
 """``agents(env, observations) -> actions`` of the live agents."""
@@ -218,17 +221,30 @@ def main() -> None:
     parser.add_argument(
         "--n-steps", type=positive_int, default=128, help="PPO rollout steps per entry"
     )
-    parser.add_argument("--batch-size", type=positive_int, default=256)
+    parser.add_argument("--batch-size", type=positive_int, default=256, help="at least 2")
     parser.add_argument("--epochs", type=positive_int, default=4, help="PPO epochs per rollout")
     parser.add_argument("--eval-episodes", type=positive_int, default=5, help="held-out episodes")
     parser.add_argument("--seed", type=non_negative_int, default=0)
-    parser.add_argument("--smoke", action="store_true", help="tiny settings, for tests")
+    parser.add_argument(
+        "--smoke", action="store_true",
+        help="tiny settings, for tests: 2 robots, 40-step episodes on 12 x 9 m floors, "
+        "32-step rollouts in one batch, 1 epoch, 1 held-out episode (these override "
+        "the options of the same names)",
+    )  # fmt: skip
     args = parser.parse_args()
     if args.timesteps < 1:
         parser.error(f"--timesteps must be at least 1, got {args.timesteps}")
     if args.smoke:
         args.robots, args.max_cycles, args.world_size = 2, 40, [12.0, 9.0]
         args.n_steps, args.batch_size, args.epochs, args.eval_episodes = 32, 32, 1, 1
+    if args.batch_size < 2:  # Stable-Baselines3 asserts on it after the environments start
+        parser.error(f"--batch-size must be at least 2, got {args.batch_size}")
+    written = [name for name in OUTPUTS if (args.out / name).exists()]
+    if written:  # a rerun, or one interrupted, would leave old and new files mixed
+        parser.error(
+            f"--out {args.out} already holds a run ({', '.join(written)}); choose another "
+            "folder or remove it"
+        )
     try:
         import torch
         from stable_baselines3 import PPO
@@ -254,9 +270,11 @@ def main() -> None:
     )
     curve = args.out / "learning_curve.csv"
     clock = time.perf_counter()
-    model.learn(total_timesteps=args.timesteps, callback=learning_callback(curve, args.robots))
+    try:
+        model.learn(total_timesteps=args.timesteps, callback=learning_callback(curve, args.robots))
+    finally:  # worker processes are not daemons: left open, they would keep Python alive
+        venv.close()
     training_seconds = time.perf_counter() - clock
-    venv.close()
     model.save(args.out / "model.zip")
     evaluation = {
         "trained": evaluate(model_agents(model), args),

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import sys
 from typing import IO, Any
 
@@ -65,7 +66,13 @@ def _silence(answers: IO[bytes]) -> None:
 
 
 def main() -> None:
-    """Warm up, say so (:data:`READY`), then serve jobs on the standard streams."""
+    """Warm up, say so (:data:`READY`), then serve jobs on the standard streams.
+
+    Ctrl-C is ignored: a terminal sends it to the caller too, which stops and
+    reports it, and this worker ends when the caller's end of its input closes
+    (a traceback of its own would only clutter the caller's one-line message).
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     warm_up()
     try:
         pickle.dump(READY, sys.stdout.buffer, protocol=pickle.HIGHEST_PROTOCOL)
