@@ -19,7 +19,8 @@ The output folder holds ``learning_curve.csv`` (one row per finished training
 episode, written as they finish), ``learning_curve.png``, ``summary.json``
 (per policy: mean episode return per robot and mean final team coverage,
 with each episode's figures) and ``model.zip``. A folder that already holds
-any of them is refused, so that a rerun never mixes two runs' files.
+any of them is refused, so that a rerun never mixes two runs' files. Ctrl-C
+during training keeps the curve so far and saves the model as it is.
 
 Usage::
 
@@ -272,6 +273,11 @@ def main() -> None:
     clock = time.perf_counter()
     try:
         model.learn(total_timesteps=args.timesteps, callback=learning_callback(curve, args.robots))
+    except KeyboardInterrupt:  # keep the training done so far
+        model.save(args.out / "model.zip")
+        print(f"the model after {model.num_timesteps} timesteps is in {args.out / 'model.zip'}",
+              file=sys.stderr)  # fmt: skip
+        raise
     finally:  # worker processes are not daemons: left open, they would keep Python alive
         venv.close()
     training_seconds = time.perf_counter() - clock
