@@ -244,6 +244,7 @@ def test_a_run_without_merging_has_no_merge_views(tmp_path: Path) -> None:
     held = held_entities(path)
     assert [v.kind for v in views].count("TimeSeries") == 2
     assert [v.kind for v in views].count("2D") == 1 + 2
+    assert "World: truth, robots" in [v.name for v in views]  # no merged map to name
     for view in views:
         for rule in view.contents:
             if rule.startswith("+ "):

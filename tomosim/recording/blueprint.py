@@ -164,7 +164,11 @@ def default_blueprint(
         row_shares=[MAPS_SHARE, CHARTS_SHARE],
     )
     return rrb.Blueprint(
-        rrb.Horizontal(world_view(bounds), side, column_shares=[WORLD_SHARE, SIDE_SHARE]),
+        rrb.Horizontal(
+            world_view(bounds) if merging else world_view(bounds, name="World: truth, robots"),
+            side,
+            column_shares=[WORLD_SHARE, SIDE_SHARE],
+        ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline=STEP_TIMELINE, play_state="following"),
