@@ -63,6 +63,28 @@ class SimulationConfig:
             raise ValueError(f"dt must be a positive number of seconds, got {self.dt}")
 
 
+def _check_room(world: World, poses: NDArray[np.float64], radius: float) -> None:
+    """Raise ValueError unless every robot's disc (``radius``) lies in free space, apart
+    from the others: a disc across a wall or another robot puts the lidar inside an
+    obstacle, where it reads zero and negative ranges that the map takes for walls."""
+    room = world.clearance_at(poses[:, :2])
+    for k in np.flatnonzero(room < radius):
+        x, y = poses[k, :2]
+        raise ValueError(
+            f"poses[{k}] at ({x:g}, {y:g}) m has {room[k]:.2f} m of free space around it; "
+            f"a robot needs its radius, {radius:g} m (off the map or in a wall has none)"
+        )
+    offsets = poses[:, None, :2] - poses[None, :, :2]
+    gaps = np.hypot(offsets[..., 0], offsets[..., 1])
+    first, second = np.nonzero(np.triu(gaps < 2 * radius, k=1))
+    if len(first):
+        i, j = int(first[0]), int(second[0])
+        raise ValueError(
+            f"poses[{i}] and poses[{j}] are {gaps[i, j]:.2f} m apart; robots of radius "
+            f"{radius:g} m need {2 * radius:g} m"
+        )
+
+
 class Simulation:
     """Robots exploring a :class:`~tomosim.worlds.World`.
 
@@ -141,6 +163,7 @@ class Simulation:
                 raise ValueError(
                     f"poses must be a finite (N, 3) array of (x, y, theta), got shape {start.shape}"
                 )
+            _check_room(world, start, radius)
         if len(start) == 0:
             raise ValueError("a simulation needs at least one robot")
         self.start_poses = start.copy()

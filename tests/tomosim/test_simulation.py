@@ -169,6 +169,18 @@ def test_commands_are_validated(world: World) -> None:
         Simulation(world, poses=np.zeros((3, 2)))
 
 
+def test_given_poses_must_leave_each_robot_room(world: World) -> None:
+    # A disc across a wall or another robot put the lidar inside an obstacle: it read
+    # zero and negative ranges, which the map took for walls around the robot.
+    ((x, y, _),) = world.sample_free_poses(1, clearance=1.0, rng=0)
+    with pytest.raises(ValueError, match=r"poses\[0\] and poses\[1\] are 0.10 m apart"):
+        Simulation(world, poses=[[x, y, 0.0], [x + 0.1, y, 0.0]])
+    with pytest.raises(ValueError, match=r"poses\[0\] at .* has 0.00 m of free space"):
+        Simulation(world, poses=[[-50.0, -50.0, 0.0]])
+    sim = Simulation(world, poses=[[x - 0.3, y, 0.0], [x + 0.3, y, 0.0]], rng=0)
+    assert all(np.all(np.isnan(scan.ranges) | (scan.ranges > 0)) for scan in sim.scans)
+
+
 def test_known_cells_cover_what_the_robot_saw(world: World) -> None:
     sim = Simulation(world, robots=1, config=NOISELESS, rng=9)
     known = known_in_world(world, sim.grid(0), sim.start_poses[0])
