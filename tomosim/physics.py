@@ -29,6 +29,9 @@ from tomosim.worlds.world import as_segments
 MAX_SUBSTEP_TRAVEL = 0.25
 """Largest fraction of its radius a robot may travel in one physics substep;
 far below 1, so a disc never gets its centre past a zero-thickness wall."""
+MAX_SUBSTEPS = 10_000
+"""Most physics substeps one step may need (the default needs 2): a speed or step
+length that needs more is refused instead of stepping for hours."""
 CONTACT_TOLERANCE = 0.01
 """Metres within which :meth:`Physics.in_contact` counts a robot as touching:
 above the collision slop, below any gap a robot would drive through."""
@@ -83,14 +86,21 @@ class PhysicsConfig:
                 f"collision_slop ({self.collision_slop} m) must be well below the "
                 f"robot radius ({self.robot_radius} m)"
             )
-        if self.solver_iterations < 1:
-            raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
+        iterations = self.solver_iterations
+        if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+            raise ValueError(f"solver_iterations must be a whole number >= 1, got {iterations!r}")
 
     def substeps(self, dt: float) -> int:
         """Substeps per step of ``dt`` seconds that keep travel below
         :data:`MAX_SUBSTEP_TRAVEL` radii per substep."""
         travel = self.max_linear_speed * dt
-        return max(1, math.ceil(travel / (MAX_SUBSTEP_TRAVEL * self.robot_radius)))
+        count = max(1, math.ceil(travel / (MAX_SUBSTEP_TRAVEL * self.robot_radius)))
+        if count > MAX_SUBSTEPS:
+            raise ValueError(
+                f"a step of {dt:g} s at {self.max_linear_speed:g} m/s needs {count} physics "
+                f"substeps (more than {MAX_SUBSTEPS}); lower dt or max_linear_speed"
+            )
+        return count
 
 
 def build_space(walls: ArrayLike, *, collision_slop: float = 0.002) -> pymunk.Space:

@@ -59,8 +59,9 @@ class SimulationConfig:
     mapping: MappingConfig = field(default_factory=MappingConfig)
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.dt) and self.dt > 0):
-            raise ValueError(f"dt must be a positive number of seconds, got {self.dt}")
+        if isinstance(self.dt, bool) or not (math.isfinite(self.dt) and self.dt > 0):
+            raise ValueError(f"dt must be a positive number of seconds, got {self.dt!r}")
+        self.physics.substeps(self.dt)  # raises for a step the physics cannot take in time
 
 
 def _check_room(world: World, poses: NDArray[np.float64], radius: float) -> None:

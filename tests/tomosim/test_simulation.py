@@ -12,6 +12,7 @@ from merging.metrics import acceptance_index, matching_index
 from tomosim.evaluation import coverage, known_in_world
 from tomosim.frames import place_grid, pose_matrix
 from tomosim.odometry import Odometry, OdometryConfig, compose, relative_motion
+from tomosim.physics import PhysicsConfig
 from tomosim.simulation import Simulation, SimulationConfig
 from tomosim.worlds import World, generate_floorplan
 
@@ -167,6 +168,14 @@ def test_commands_are_validated(world: World) -> None:
         SimulationConfig(dt=0.0)
     with pytest.raises(ValueError, match="poses"):
         Simulation(world, poses=np.zeros((3, 2)))
+
+
+def test_a_step_the_physics_cannot_take_in_time_is_refused() -> None:
+    # It asked pymunk for some 2e9 substeps a step and ran for hours.
+    with pytest.raises(ValueError, match="physics substeps"):
+        SimulationConfig(physics=PhysicsConfig(max_linear_speed=1e9))
+    with pytest.raises(ValueError, match="solver_iterations must be a whole number"):
+        PhysicsConfig(solver_iterations=2.5)  # type: ignore[arg-type]
 
 
 def test_given_poses_must_leave_each_robot_room(world: World) -> None:

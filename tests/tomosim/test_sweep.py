@@ -59,6 +59,13 @@ def test_plan_is_the_full_grid_in_a_fixed_order() -> None:
         ("policies", ("greedy",), "unknown exploration policy"),
         ("seeds", (), "at least one"),
         ("robots", (2, 2), "twice"),
+        ("worlds", "12", "must be a tuple"),  # not worlds "1" and "2"
+        ("worlds", ("0", 0), "twice"),  # one key for two episodes
+        ("robots", (0,), "whole numbers >= 1"),
+        ("seeds", (-1,), "whole numbers >= 0"),
+        ("steps", 0, "steps must be a whole number >= 1"),
+        ("coverage_target", 2.0, r"coverage_target must be a number in \(0, 1\]"),
+        ("world_size", (-1.0, 5.0), "world_size must be two positive"),
     ],
 )
 def test_plan_rejects_bad_values(field: str, value: tuple, message: str) -> None:

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 from tomosim.episode import EpisodeConfig
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
@@ -12,6 +15,11 @@ from tomosim.team import CommsConfig, team_methods
 
 NO_MERGE = "none"
 """Method name standing for an episode with merging switched off."""
+
+
+def _whole(value: object) -> bool:
+    """Whether ``value`` is a whole number (an int, not a bool)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,8 +76,30 @@ class SweepPlan:
 
     def __post_init__(self) -> None:
         for name in ("worlds", "robots", "policies", "methods", "seeds"):
-            if len(getattr(self, name)) == 0:
+            values = getattr(self, name)
+            if isinstance(values, str | bytes) or not isinstance(values, tuple | list):
+                raise ValueError(f"{name} must be a tuple of values, got {values!r}")
+            if len(values) == 0:
                 raise ValueError(f"a sweep needs at least one value of {name}")
+        object.__setattr__(self, "worlds", tuple(str(world) for world in self.worlds))
+        for name, least in (("robots", 1), ("seeds", 0)):
+            bad = [v for v in getattr(self, name) if not _whole(v) or v < least]
+            if bad:
+                raise ValueError(f"{name} must be whole numbers >= {least}, got {bad[0]!r}")
+        for name in ("steps", "merge_interval"):
+            value = getattr(self, name)
+            if not _whole(value) or value < 1:
+                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
+        target = self.coverage_target
+        if isinstance(target, bool) or not isinstance(target, int | float) or not 0 < target <= 1:
+            raise ValueError(f"coverage_target must be a number in (0, 1], got {target!r}")
+        if self.world_size is not None and (
+            len(self.world_size) != 2
+            or not all(
+                isinstance(v, int | float) and math.isfinite(v) and v > 0 for v in self.world_size
+            )
+        ):
+            raise ValueError(f"world_size must be two positive metres, got {self.world_size!r}")
         unknown = [m for m in self.methods if m != NO_MERGE and m not in team_methods()]
         if unknown:
             choices = ", ".join([*team_methods(), NO_MERGE])
