@@ -29,6 +29,7 @@ to date cell by cell.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +52,10 @@ STAMP_DTYPE = np.uint8
 """Type of the kernel's per-cell scan stamps: one byte keeps them, and the cells a
 scan reads, in fewer cache lines; the stamps are cleared every 255 scans, when the
 scan numbers start again."""
+MAX_GRID_SIDE_CELLS = 20000
+"""Most cells a side that an initial grid or one growth step may take (20000 x
+20000 cells of log-odds alone take 1.6 GB); a building at 0.05 m is a few
+thousand."""
 CODE_THRESHOLDS = code_thresholds()
 """Log-odds at which the ROS code of a cell steps up
 (:func:`~tomosim.kernels.logodds.code_thresholds`)."""
@@ -88,7 +93,23 @@ class MappingConfig:
     carve_no_return: bool = True
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.resolution) and self.resolution > 0):
+        for name in (
+            "resolution",
+            "log_odds_hit",
+            "log_odds_miss",
+            "log_odds_min",
+            "log_odds_max",
+            "initial_extent",
+            "growth_padding",
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise TypeError(f"{name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"{name} must be finite, got {value}")
+        if not isinstance(self.carve_no_return, bool):
+            raise TypeError(f"carve_no_return must be True or False, got {self.carve_no_return!r}")
+        if not self.resolution > 0:
             raise ValueError(
                 f"resolution must be a positive number of metres, got {self.resolution}"
             )
@@ -107,6 +128,15 @@ class MappingConfig:
                 f"initial_extent must be > 0 and growth_padding >= 0 metres, got "
                 f"{self.initial_extent} and {self.growth_padding}"
             )
+        for name in ("initial_extent", "growth_padding"):
+            cells = getattr(self, name) / self.resolution
+            if cells > MAX_GRID_SIDE_CELLS:
+                raise ValueError(
+                    f"{name} of {getattr(self, name)} m is {cells:.0f} cells at "
+                    f"{self.resolution} m a cell, more than a grid holds "
+                    f"({MAX_GRID_SIDE_CELLS} a side); give it in metres, a few tens "
+                    "(the grid grows as the robot sees more)"
+                )
 
 
 def integrate_rays(

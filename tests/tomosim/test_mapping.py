@@ -144,6 +144,29 @@ def test_config_is_validated() -> None:
         LogOddsMap().update((np.nan, 0.0, 0.0), Scan(np.zeros(1), np.ones(1), 5.0))
 
 
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {"log_odds_max": float("inf")},  # would switch the clamp off
+        {"log_odds_min": -float("inf")},
+        {"initial_extent": float("inf")},
+        {"growth_padding": float("nan")},
+    ],
+)
+def test_config_refuses_values_that_are_not_finite(settings: dict[str, float]) -> None:
+    with pytest.raises(ValueError, match=f"{next(iter(settings))} must be finite"):
+        MappingConfig(**settings)
+
+
+def test_config_refuses_a_grid_no_memory_holds() -> None:
+    # 5000 given as cells, not metres: 100000 cells a side at 0.05 m.
+    with pytest.raises(ValueError, match=r"initial_extent of 5000\.0 m is 100000 cells"):
+        MappingConfig(initial_extent=5000.0)
+    with pytest.raises(TypeError, match=r"resolution must be a number, got '0\.05'"):
+        MappingConfig(resolution="0.05")  # type: ignore[arg-type]
+    assert MappingConfig(resolution=np.float32(0.1)).resolution == np.float32(0.1)
+
+
 def test_hits_at_the_edge_of_the_grid_grow_it_first() -> None:
     config = MappingConfig(initial_extent=2.0, growth_padding=0.0)
     grid_map = LogOddsMap(config)
