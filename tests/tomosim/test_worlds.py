@@ -143,6 +143,20 @@ def test_floorplan_config_is_validated() -> None:
         generate_floorplan(0, config="big")  # type: ignore[arg-type]
 
 
+def test_floorplan_config_refuses_sizes_no_grid_holds() -> None:
+    with pytest.raises(ValueError, match="width must be finite"):
+        FloorplanConfig(width=float("inf"))
+    with pytest.raises(ValueError, match="room_width must be finite"):
+        FloorplanConfig(room_width=(3.0, float("nan")))
+    with pytest.raises(ValueError, match="door_width must be a range"):
+        FloorplanConfig(door_width=(1.0,))  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="width must be a number"):
+        FloorplanConfig(width="30")  # type: ignore[arg-type]
+    # 10 km at 0.05 m is 200040 cells a side (a width given in cells, say).
+    with pytest.raises(ValueError, match=r"width 10000\.0 m makes a grid 200040 cells"):
+        FloorplanConfig(width=10000.0)
+
+
 def test_real_map_becomes_a_world() -> None:
     folder = maps_dir()
     if folder is None or not (folder / "aces3.yaml").is_file():

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 
 MIN_EXTENT_ROOMS = 2
 """The building must be at least this many smallest rooms wide."""
+MAX_SIDE_CELLS = 20000
+"""Most cells a side of a floor's truth grid (a 1000 m floor at 0.05 m); a
+grid of 20000 x 20000 cells takes 400 MB and its walls minutes to build."""
 
 
 @dataclass(frozen=True)
@@ -45,6 +50,14 @@ class FloorplanConfig:
     """Clutter never cuts the free space apart for a disc of this radius."""
 
     def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if isinstance(value, tuple) and len(value) != 2:
+                raise ValueError(f"{name} must be a range (low, high), got {value!r}")
+            for number in value if isinstance(value, tuple) else (value,):
+                if isinstance(number, bool) or not isinstance(number, numbers.Real):
+                    raise TypeError(f"{name} must be a number or a range of two, got {value!r}")
+                if not math.isfinite(number):
+                    raise ValueError(f"{name} must be finite, got {value}")
         for name in (
             "width",
             "height",
@@ -84,6 +97,14 @@ class FloorplanConfig:
             value = getattr(self, name)
             if not 0 <= value <= 1:
                 raise ValueError(f"{name} must be a probability in [0, 1], got {value}")
+        for name in ("width", "height"):
+            cells = (getattr(self, name) + 2 * self.margin) / self.resolution
+            if cells > MAX_SIDE_CELLS:
+                raise ValueError(
+                    f"{name} {getattr(self, name)} m makes a grid {cells:.0f} cells a side at "
+                    f"{self.resolution} m a cell, more than {MAX_SIDE_CELLS}; use a smaller "
+                    "floor or a coarser resolution"
+                )
         if self.width < MIN_EXTENT_ROOMS * self.room_width[0]:
             raise ValueError(
                 f"width {self.width} m is too small: use at least "
