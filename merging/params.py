@@ -323,7 +323,14 @@ class RobustParams:
     ----------
     margin : float
         Ranking score (:attr:`merging.verify.Verification.score`) by which the
-        placement beats the best *different* one.
+        placement beats the best *different* one, one farther than
+        ``distinct_cells``.
+    distinct_cells : float
+        Cells (RMS over map 2's walls) a competing placement must lie from
+        the placement to count as different for this way of vouching. Maps
+        of separate sessions bend against each other by up to half a metre
+        (10 cells at 0.05 m), so a placement nearer than that explains the
+        same overlap bent a little the other way: one answer, not two.
     agreeing : float
         Wall cells (both directions) that land on walls: a large overlap,
         about 400 m of wall at 0.05 m. Right E5 session placements this way
@@ -378,6 +385,7 @@ class RobustParams:
     """
 
     margin: float = 0.3
+    distinct_cells: float = 10.0
     agreeing: float = 8000.0
     tolerance: int = 4
     agreement: float = 0.5

@@ -60,8 +60,11 @@ class MergeResult:
         plain fit, ``agreement - conflict_weight * conflict``) and
         ``fit_quality`` (the one the fit factor used, tolerant of bent maps
         where that fits better), ``matching_wall_cells``,
-        ``shared_open_cells``, ``strength``, ``margin`` and
-        ``runner_up_distance_cells`` against the best different placement,
+        ``shared_open_cells``, ``strength``, ``margin``,
+        ``runner_up_distance_cells`` and ``runner_up_turn_deg`` against the
+        best different placement (``tolerant_margin`` and
+        ``tolerant_runner_up_*`` against the best one beyond the bending of
+        separate sessions, which the robust evidence holds it against),
         the factors ``close_*`` and, when the close fit fails, ``robust_*``
         and ``tolerant_*`` (only the free ones, and the strength a refusal's
         reason may need, when one of them already keeps the robust way below

@@ -12,8 +12,9 @@ way the default method vouches for a placement (:mod:`merging.verdict`):
 * ``open_share`` (shared open space over the smaller map's): how much
   overlaps;
 
-besides the amount of agreeing wall, the margin over the best different
-placement and the constraint strength.
+besides the amount of agreeing wall, the margin over the best placement
+farther than the bending (``RobustParams.distinct_cells``) and the
+constraint strength.
 """
 
 from __future__ import annotations
@@ -118,7 +119,8 @@ def robust_factors(
     ``measures`` may hold any of :data:`ROBUST_FACTORS`; each one present
     gets its factor, the logistic of the measure against its threshold: in
     ``[0, 1]`` and one half at the threshold (``margin`` is the margin over
-    the best different placement; ``agreeing`` and ``strength`` are weighed
+    the best placement farther than ``params.distinct_cells``; ``agreeing``
+    and ``strength`` are weighed
     in log10).
     """
     thresholds = {

@@ -361,14 +361,30 @@ def _merge_observed(
             reason="no placement to weigh: the maps are too small to hold a wall direction",
         )
     best = pool[0][1]
-    runner_up = next(
-        (c for c in pool[1:] if _rms_between(c[1], best, second.points) > params.distinct_cells),
-        None,
+    runner_up, far_runner_up = _runners_up(
+        pool, second.points, (params.distinct_cells, params.robust.distinct_cells)
     )
     hypotheses = tuple(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
     )
-    return _judged(maps, best, runner_up, hypotheses, timings)
+    return _judged(maps, best, (runner_up, far_runner_up), hypotheses, timings)
+
+
+def _runners_up(
+    pool: list[Candidate], points: NDArray[np.float64], distances: tuple[float, float]
+) -> tuple[Candidate | None, Candidate | None]:
+    """The best candidates after the first that move ``points`` farther from where it
+    puts them than each of ``distances`` (cells RMS); None where there is none."""
+    best = pool[0][1]
+    found: list[Candidate | None] = [None, None]
+    for candidate in pool[1:]:
+        apart = _rms_between(candidate[1], best, points)
+        for k, distance in enumerate(distances):
+            if found[k] is None and apart > distance:
+                found[k] = candidate
+        if all(entry is not None for entry in found):
+            break
+    return found[0], found[1]
 
 
 def _search(maps: _Maps, factor: int, timings: dict[str, float]) -> list[Candidate]:
@@ -440,7 +456,7 @@ def _mirror_search(
 def _judged(
     maps: _Maps,
     best: NDArray[np.float64],
-    runner_up: Candidate | None,
+    runners_up: tuple[Candidate | None, Candidate | None],
     hypotheses: tuple[Hypothesis, ...],
     timings: dict[str, float],
     *,
@@ -448,12 +464,24 @@ def _judged(
 ) -> MergeResult:
     """The result for ``best``: its confidence, the verdict and, when refused, why.
 
+    ``runners_up`` are the best placements different from ``best`` for the
+    close fit and for the robust evidence (:func:`merging.verdict.judge`).
     With ``mirror_check``, the verdict searches for the mirror image of the
     evidence, for a placement it would otherwise accept.
     """
     clock = time.perf_counter()
     mirror = _mirror_search(maps, best, timings) if mirror_check else None
-    verdict = judge(maps.first, maps.second, maps.smoothed, best, runner_up, maps.params, mirror)
+    runner_up, far_runner_up = runners_up
+    verdict = judge(
+        maps.first,
+        maps.second,
+        maps.smoothed,
+        best,
+        runner_up,
+        maps.params,
+        mirror,
+        far_runner_up=far_runner_up,
+    )
     timings["judge"] = time.perf_counter() - clock - timings.get("mirror", 0.0)
     return MergeResult(
         matrix=best,
@@ -554,7 +582,7 @@ def refine_from(
     hypotheses = (
         Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
     )
-    result = _judged(maps, refined[1], None, hypotheses, timings, mirror_check=False)
+    result = _judged(maps, refined[1], (None, None), hypotheses, timings, mirror_check=False)
     timings["total"] = time.perf_counter() - clock
     return _with_metres(replace(result, matrix=best), map1, map2)
 

@@ -9,7 +9,7 @@ Two ways to vouch, either is enough (the confidence is the larger):
 * the **robust evidence** of :func:`merging.robust.robust_confidence`: for
   maps of separate sessions, which bend and draw thick walls, a large
   overlap whose walls meet within a few cells, whose open space lies on open
-  space, and which no different placement comes near.
+  space, and which no placement farther than the maps bend comes near.
 
 A placement either way would vouch for is then held against map 2's mirror
 image (:mod:`merging.mirror`): if the mirrored map, laid on the same
@@ -92,11 +92,17 @@ def judge(
     runner_up: tuple[Verification, NDArray[np.float64]] | None,
     params: TomographicParams,
     mirror: MirrorSearch | None = None,
+    *,
+    far_runner_up: tuple[Verification, NDArray[np.float64]] | None = None,
 ) -> Verdict:
     """Judge ``best`` (map 2 cells -> map 1 cells) against the best different placement.
 
     ``runner_up`` is that placement and its verification, or None when the
-    search found no different one (or did not search). ``mirror``, when
+    search found no different one (or did not search): one farther than
+    ``TomographicParams.distinct_cells``. The robust evidence, for maps that
+    bend, holds ``best`` against ``far_runner_up`` instead, the best one
+    farther than ``RobustParams.distinct_cells`` (None: there is none).
+    ``mirror``, when
     given, finds map 2's mirrored placements; it is called only when a way
     of vouching passes, and then that way must also beat the mirror image:
     each by ``ConfidenceParams.mirror_margin`` of its evidence in its
@@ -138,11 +144,14 @@ def judge(
     evidence.update(
         {f"close_{name}": value for name, value in zip(CLOSE_FACTORS, factors, strict=True)}
     )
-    if runner_up is not None:
-        evidence["margin"] = check.score - runner_up[0].score
-        evidence["runner_up_distance_cells"] = _rms_between(best, runner_up[1], second.points)
-        turn = matrix_to_pose(best)[2] - matrix_to_pose(runner_up[1])[2]
-        evidence["runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
+    for prefix, competitor in (("", runner_up), ("tolerant_", far_runner_up)):
+        if competitor is not None:
+            evidence[f"{prefix}margin"] = check.score - competitor[0].score
+            evidence[f"{prefix}runner_up_distance_cells"] = _rms_between(
+                best, competitor[1], second.points
+            )
+            turn = matrix_to_pose(best)[2] - matrix_to_pose(competitor[1])[2]
+            evidence[f"{prefix}runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
     accept = params.confidence.accept
     vouched = close >= accept
     if close >= accept and twins.available:
@@ -245,7 +254,7 @@ def _robust(
     smaller = min(open_cells(first), open_cells(second))
     measures = {
         # With no different placement at all, nothing competes: the margin passes.
-        "margin": evidence.get("margin", robust.margin + 1.0),
+        "margin": evidence.get("tolerant_margin", robust.margin + 1.0),
         "agreeing": check.agreeing,
         "open_share": check.shared_space / (2.0 * smaller) if smaller > 0 else 0.0,
     }
@@ -292,13 +301,15 @@ def refusal_reason(
     failing = [name for name in REASON_ORDER if values[name] < 0.5]
     cause = failing[0] if failing else min(values, key=lambda name: values[name])
     small = False
+    competitor = ""  # the close fit's runner-up; "tolerant_" for the robust way's
     if cause == "fit" and robust:
         weak = {name for name, value in robust.items() if value < 0.5}
         cause = "distinct" if "margin" in weak else "constraint" if "strength" in weak else "fit"
         small = bool(weak & {"agreeing", "open_share"})
+        competitor = "tolerant_"
     if cause == "distinct":
-        distance = evidence.get("runner_up_distance_cells", 0.0)
-        turn = evidence.get("runner_up_turn_deg", 0.0)
+        distance = evidence.get(f"{competitor}runner_up_distance_cells", 0.0)
+        turn = evidence.get(f"{competitor}runner_up_turn_deg", 0.0)
         turned = f", turned {turn:.0f} degrees from it" if turn >= 1.0 else ""
         return (
             "ambiguous: another placement about as good lies "
