@@ -139,6 +139,28 @@ class MappingConfig:
                 )
 
 
+def _check_scan(scan: Scan) -> None:
+    """Raise unless ``scan`` holds one finite angle per range and a finite range limit.
+
+    The compiled kernel reads one angle per range; it checks each beam's angle
+    and range itself (finite, within ``[0, max_range]`` or ``inf``/``nan``).
+    """
+    angles, ranges = np.asarray(scan.angles), np.asarray(scan.ranges)
+    if angles.ndim != 1 or angles.shape != ranges.shape:
+        raise ValueError(
+            f"a scan needs one angle per range, got angles of shape {angles.shape} and "
+            f"ranges of shape {ranges.shape}"
+        )
+    limit = scan.max_range
+    if isinstance(limit, bool) or not isinstance(limit, numbers.Real):
+        raise TypeError(f"a scan's max_range must be a number of metres, got {limit!r}")
+    if not (math.isfinite(limit) and limit > 0):
+        raise ValueError(
+            f"a scan's max_range must be a finite positive number of metres, got {limit} "
+            "(a beam without return is inf; the limit is where the map stops carving)"
+        )
+
+
 def integrate_rays(
     logodds: NDArray[np.float32],
     observed: NDArray[np.bool_],
@@ -333,6 +355,7 @@ class LogOddsMap:
         x, y, theta = (float(v) for v in np.asarray(pose, dtype=float))
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             raise ValueError(f"pose must be finite, got {(x, y, theta)}")
+        _check_scan(scan)
         cfg = self.config
         room_checked = False
         while True:

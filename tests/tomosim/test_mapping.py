@@ -183,3 +183,25 @@ def test_hits_at_the_edge_of_the_grid_grow_it_first() -> None:
         )
         cells = np.floor(grid.world_to_cell(ends) + 0.5).astype(int)
         assert np.all(cells >= 0) and np.all(cells < grid.shape[::-1])
+
+
+@pytest.mark.parametrize(
+    ("angles", "ranges", "max_range", "match"),
+    [
+        (2, np.full(2000, 3.0), 8.0, "one angle per range"),  # read past the angles
+        (8, np.full(8, np.inf), np.nan, "max_range must be a finite"),
+        (8, np.full(8, np.inf), np.inf, "max_range must be a finite"),
+        (None, np.full(8, 3.0), 8.0, "angle of a scan must be finite"),
+        (8, np.full(8, -1.0), 8.0, "within \\[0, max_range\\]"),
+        (8, np.full(8, 1e30), 8.0, "within \\[0, max_range\\]"),
+    ],
+)
+def test_a_scan_that_does_not_add_up_is_refused(angles, ranges, max_range, match) -> None:
+    # Each of these crashed the interpreter, drew beams at numbers past the end of
+    # the angles, or failed deep inside with an unreadable error.
+    beams = LidarConfig(beams=8).angles()
+    angles = np.full(8, np.nan) if angles is None else beams[:angles]
+    grid_map = LogOddsMap()
+    with pytest.raises(ValueError, match=match):
+        grid_map.update((0.0, 0.0, 0.0), Scan(angles, ranges, max_range))
+    assert not grid_map.observed.any()

@@ -222,6 +222,12 @@ def beam_ends(
         value = ranges[k]
         if math.isnan(value):
             continue
+        if not math.isfinite(angles[k]):
+            raise ValueError("every beam angle of a scan must be finite")
+        if value < 0.0 or (value > max_range and not math.isinf(value)):
+            raise ValueError(
+                "scan ranges must lie within [0, max_range] (inf: no return, nan: dropout)"
+            )
         returned = not math.isinf(value)
         if not returned and not carve_no_return:
             continue
