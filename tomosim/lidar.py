@@ -215,6 +215,9 @@ class Lidar:
         """
         cfg = self.config
         beams = cfg.beams
+        poses = np.ascontiguousarray(poses, dtype=np.float64)
+        if poses.ndim != 2 or poses.shape[1] != 3:
+            raise ValueError(f"poses must be (N, 3) rows of (x, y, theta), got shape {poses.shape}")
         robots = len(poses)
         if len(rngs) != robots:
             raise ValueError(f"need one generator per pose, got {len(rngs)} for {robots}")
@@ -224,7 +227,7 @@ class Lidar:
             normals[k] = rng.normal(0.0, 1.0, beams)
             uniforms[k] = rng.random(beams)
         ranges = scan_team(
-            np.ascontiguousarray(poses, dtype=np.float64),
+            poses,
             cfg.first_angle,
             cfg.increment,
             beams,

@@ -161,3 +161,14 @@ def test_config_is_validated() -> None:
         LidarConfig(dropout_probability=1.0)
     with pytest.raises(ValueError, match="walls"):
         Lidar(LidarConfig(), np.zeros((3, 2)))
+
+
+def test_team_scans_refuse_poses_without_a_heading() -> None:
+    # (N, 2) poses were read as a flat buffer: robot 0 took robot 1's x as its heading.
+    square = np.array(
+        [[[-5, -5], [5, -5]], [[5, -5], [5, 5]], [[5, 5], [-5, 5]], [[-5, 5], [-5, -5]]], float
+    )
+    lidar = Lidar(LidarConfig(), square)
+    rngs = [np.random.default_rng(k) for k in range(2)]
+    with pytest.raises(ValueError, match=r"poses must be \(N, 3\)"):
+        lidar.scans(np.array([[0.0, 0.0], [1.5, 0.2]]), radius=0.2, rngs=rngs)
