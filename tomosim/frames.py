@@ -47,6 +47,11 @@ def frame_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[float, float]:
     return abs(math.degrees(turn)), shift
 
 
+RIGID_TOLERANCE = 1e-6
+"""How far a matrix :func:`place_grid` takes may be from a rigid one (products of
+rigid matrices drift by about 1e-15)."""
+
+
 def place_grid(grid: OccupancyGrid, frame_from_grid: ArrayLike) -> OccupancyGrid:
     """The same cells placed in another frame.
 
@@ -59,6 +64,16 @@ def place_grid(grid: OccupancyGrid, frame_from_grid: ArrayLike) -> OccupancyGrid
     matrix = np.asarray(frame_from_grid, dtype=float)
     if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
         raise ValueError(f"frame_from_grid must be a finite 3x3 matrix, got shape {matrix.shape}")
+    turn_part = matrix[:2, :2]
+    if not (
+        np.allclose(turn_part.T @ turn_part, np.eye(2), atol=RIGID_TOLERANCE)
+        and np.linalg.det(turn_part) > 0
+        and np.allclose(matrix[2], (0.0, 0.0, 1.0), atol=RIGID_TOLERANCE)
+    ):
+        raise ValueError(
+            "frame_from_grid must be rigid (a turn and a shift): it would scale or mirror "
+            f"the grid, which keeps its cells and resolution; got {matrix.round(6).tolist()}"
+        )
     ox, oy, yaw = grid.origin
     x, y = matrix[:2, :2] @ np.array([ox, oy]) + matrix[:2, 2]
     turn = math.atan2(matrix[1, 0], matrix[0, 0])

@@ -10,7 +10,7 @@ import pytest
 from merging.grid import UNKNOWN, OccupancyGrid
 from merging.result import MergeResult
 from tomosim.evaluation import coverage, known_in_world
-from tomosim.frames import pose_matrix
+from tomosim.frames import place_grid, pose_matrix
 from tomosim.simulation import Simulation
 from tomosim.team import (
     SharedMaps,
@@ -276,3 +276,26 @@ def test_config_rejects_bad_values() -> None:
         TeamConfig(merge_interval=0)
     with pytest.raises(ValueError, match="confirmations"):
         TeamMerger(confirmations=0)
+
+
+def test_team_coverage_refuses_grids_of_another_resolution() -> None:
+    # A 0.1 m grid counted on a 0.05 m lattice scored a quarter of what it knew.
+    world = generate_floorplan(4)
+    coarse = OccupancyGrid(
+        world.truth.data[::2, ::2].copy(), resolution=0.1, origin=world.truth.origin
+    )
+    counted = TeamCoverage(world, [(0.0, 0.0, 0.0)], resolution=0.05)
+    with pytest.raises(ValueError, match=r"grid 0 is at 0\.1 m a cell"):
+        counted.update([coarse])
+    right = TeamCoverage(world, [(0.0, 0.0, 0.0)], resolution=0.1)
+    right.update([coarse])
+    assert right.fraction > 0.95
+
+
+@pytest.mark.parametrize("matrix", [np.diag([2.0, 2.0, 1.0]), np.diag([1.0, -1.0, 1.0])])
+def test_placing_a_grid_refuses_a_matrix_that_scales_or_mirrors(matrix) -> None:
+    grid = OccupancyGrid(np.zeros((4, 4), dtype=np.int8), resolution=0.05)
+    with pytest.raises(ValueError, match="must be rigid"):
+        place_grid(grid, matrix)
+    moved = place_grid(grid, pose_matrix((1.0, 2.0, 0.5)))
+    assert moved.origin == pytest.approx((1.0, 2.0, 0.5))

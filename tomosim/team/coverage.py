@@ -91,6 +91,8 @@ class TeamCoverage:
         Number of counted cells.
     cell_area : float
         Square metres of one truth cell.
+    resolution : float
+        Cell size of the robots' grids it takes, metres.
     team_known : (total,) bool ndarray
         Which counted cells (in ``np.nonzero(region)`` order) the team knows.
     """
@@ -106,6 +108,7 @@ class TeamCoverage:
         "_widths",
         "cell_area",
         "region",
+        "resolution",
         "team_known",
         "total",
     )
@@ -116,6 +119,7 @@ class TeamCoverage:
             raise ValueError(f"start_poses must have shape (N, 3), got {starts.shape}")
         if not (math.isfinite(resolution) and resolution > 0):
             raise ValueError(f"resolution must be a positive number of metres, got {resolution}")
+        self.resolution = float(resolution)
         self.region = world.explorable
         self.cell_area = world.resolution**2
         rows, cols = np.nonzero(self.region)
@@ -168,7 +172,12 @@ class TeamCoverage:
         if len(grids) != len(self._widths):
             raise ValueError(f"expected {len(self._widths)} grids, got {len(grids)}")
         cells = []
-        for grid in grids:
+        for k, grid in enumerate(grids):
+            if not math.isclose(grid.resolution, self.resolution, rel_tol=1e-9):
+                raise ValueError(
+                    f"grid {k} is at {grid.resolution} m a cell, but this coverage counts "
+                    f"cells of {self.resolution} m; make it with the grids' resolution"
+                )
             a0, b0 = grid_anchor(grid)
             rows, cols = np.nonzero(grid.data >= 0)
             cells.append(np.column_stack([cols + a0, rows + b0]).astype(np.int64))
