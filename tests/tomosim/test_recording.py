@@ -18,7 +18,7 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from tomosim.episode import EpisodeConfig, run_episode
+from tomosim.episode import EpisodeConfig, load_world, run_episode
 from tomosim.episode.tracking import ExplorationTracker
 from tomosim.exploration import FrontierPolicy
 from tomosim.recording import (
@@ -439,3 +439,23 @@ def test_spawning_without_a_display_is_refused(
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(RecordingError, match="--spawn needs a display"):
         Recorder.open(record=tmp_path / "r.rrd", live=LiveViewer("spawn"))
+
+
+@pytest.mark.parametrize(
+    ("settings", "match"),
+    [
+        ({"robots": True}, "robots must be a whole number"),
+        ({"world_size": (0.0, 0.0)}, "world_size must be"),
+        ({"world": None}, "world must be a seed or a map file path"),
+        ({"coverage_target": "0.5"}, "coverage_target must be a number"),
+    ],
+)
+def test_episode_settings_are_checked_when_made(settings, match) -> None:
+    # Each was taken and failed only inside run_episode, or with a raw TypeError.
+    with pytest.raises((TypeError, ValueError), match=match):
+        EpisodeConfig(**settings)
+
+
+def test_a_negative_seed_given_as_text_is_named_as_a_seed() -> None:
+    with pytest.raises(ValueError, match="world seed must be a non-negative integer"):
+        load_world("-1")

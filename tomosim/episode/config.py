@@ -6,6 +6,8 @@ file (:func:`load_world`); :class:`EpisodeConfig` holds everything else.
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,7 +44,7 @@ def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = Non
     ValueError
         If the seed is negative or the map file cannot be read.
     """
-    if isinstance(spec, str) and spec.strip().isdigit():
+    if isinstance(spec, str) and spec.strip().lstrip("+-").isdigit():
         spec = int(spec)
     if isinstance(spec, int | np.integer) and not isinstance(spec, bool):
         if spec < 0:
@@ -112,16 +114,37 @@ class EpisodeConfig:
     simulation: SimulationConfig = field(default_factory=SimulationConfig)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.robots, int | np.integer) and self.robots >= 1):
-            raise ValueError(f"robots must be a whole number >= 1, got {self.robots!r}")
-        for name in ("steps", "merge_interval"):
+        for name in ("robots", "steps", "merge_interval"):
             value = getattr(self, name)
-            if not (isinstance(value, int | np.integer) and value >= 1):
+            if isinstance(value, bool) or not (isinstance(value, int | np.integer) and value >= 1):
                 raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
-        if not (isinstance(self.seed, int | np.integer) and self.seed >= 0):
+        if isinstance(self.seed, bool) or not (
+            isinstance(self.seed, int | np.integer) and self.seed >= 0
+        ):
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
-        if not (0.0 < self.coverage_target <= 1.0):
-            raise ValueError(f"coverage_target must be in (0, 1], got {self.coverage_target}")
+        target = self.coverage_target
+        if isinstance(target, bool) or not isinstance(target, numbers.Real):
+            raise TypeError(f"coverage_target must be a number in (0, 1], got {target!r}")
+        if not (0.0 < target <= 1.0):
+            raise ValueError(f"coverage_target must be in (0, 1], got {target}")
+        world = self.world
+        if isinstance(world, bool) or not isinstance(world, int | np.integer | str | Path):
+            raise TypeError(
+                f"world must be a seed or a map file path, got {type(self.world).__name__}"
+            )
+        if self.world_size is not None:
+            sides = tuple(self.world_size)
+            if len(sides) != 2 or not all(
+                isinstance(side, numbers.Real)
+                and not isinstance(side, bool)
+                and math.isfinite(side)
+                and side > 0
+                for side in sides
+            ):
+                raise ValueError(
+                    f"world_size must be (width, height), two positive numbers of metres, "
+                    f"got {self.world_size!r}"
+                )
         if self.policy not in chooser_names():
             choices = ", ".join(chooser_names())
             raise ValueError(
