@@ -75,8 +75,9 @@ class EpisodeConfig:
         Exploration policy: how robots choose frontiers
         (:func:`~tomosim.exploration.chooser_names`).
     steps : int
-        Most steps to run (0.1 s of simulated time each). The default, 200 s
-        simulated, lets four robots explore 90 % of ``aces3`` (1120 m²).
+        Most steps to run (``simulation.dt`` of simulated time each, 0.1 s by
+        default). The default, 200 s simulated, lets four robots explore 90 %
+        of ``aces3`` (1120 m²).
     merge : bool
         Whether the robots' maps are merged.
     merge_interval : int

@@ -55,7 +55,7 @@ class MergeRound:
 
 CURVE_STRIDE = 10
 """Steps between two points of the coverage curves in :meth:`EpisodeMetrics.as_dict` (one
-simulated second; the last step is always included)."""
+simulated second at the default step of 0.1 s; the last step is always included)."""
 WRONG_ROTATION_DEG = 2.0
 """An accepted estimate further off than this in rotation counts as wrong (the main
 job's accuracy bar; right merges here are within a degree)."""
