@@ -15,6 +15,7 @@ field of view included (the lidar coding of :mod:`tomosim.lidar`).
 from __future__ import annotations
 
 import gzip
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -81,13 +82,18 @@ class CarmenLog:
         return Scan(self.lidar_config().angles(), ranges, max_range)
 
 
+GZIP_MAGIC = b"\x1f\x8b"
+"""The first two bytes of a gzip-compressed file."""
+
+
 def read_carmen(path: str | Path) -> CarmenLog:
     """Read every FLASER message of a CARMEN log.
 
     Parameters
     ----------
     path : str or Path
-        A ``.log`` file, or a gzip-compressed ``.log.gz``.
+        A ``.log`` file, or a gzip-compressed one (told by its first bytes,
+        whatever its name).
 
     Returns
     -------
@@ -98,36 +104,59 @@ def read_carmen(path: str | Path) -> CarmenLog:
     FileNotFoundError
         If the file does not exist.
     ValueError
-        If a FLASER line is malformed, scans differ in beam count, or the log
-        has no FLASER message.
+        If a FLASER line is malformed (fewer than two beams, a field that is
+        not a number, a pose that is not finite), scans differ in beam
+        count, the log has no FLASER message, is not text, or is compressed
+        and cut short (the message says how many scans were read before).
     """
     source = Path(path)
     if not source.is_file():
         raise FileNotFoundError(f"CARMEN log not found: {source}")
-    opener = gzip.open if source.suffix == ".gz" else open
-    ranges, poses, odometry, stamps = [], [], [], []
-    with opener(source, "rt") as lines:
-        for number, line in enumerate(lines, start=1):
-            if not line.startswith("FLASER "):
-                continue
-            fields = line.split()
-            try:
-                count = int(fields[1])
-                values = fields[2 : 2 + count]
-                trailer = fields[2 + count : 2 + count + FLASER_TRAILER]
-                if len(values) != count or len(trailer) != FLASER_TRAILER:
-                    raise ValueError("too few fields")
-                ranges.append([float(v) for v in values])
-                poses.append([float(v) for v in trailer[0:3]])
-                odometry.append([float(v) for v in trailer[3:6]])
-                stamps.append(float(trailer[6]))
-            except (IndexError, ValueError) as exc:
-                raise ValueError(f"{source}:{number}: malformed FLASER line ({exc})") from exc
-            if len(ranges[-1]) != len(ranges[0]):
-                raise ValueError(
-                    f"{source}:{number}: {len(ranges[-1])} beams, but the first "
-                    f"scan has {len(ranges[0])}"
-                )
+    with open(source, "rb") as head:
+        compressed = head.read(2) == GZIP_MAGIC
+    ranges: list[list[float]] = []
+    poses: list[list[float]] = []
+    odometry: list[list[float]] = []
+    stamps: list[float] = []
+    number = 0
+    try:
+        with gzip.open(source, "rt") if compressed else open(source) as lines:
+            for number, line in enumerate(lines, start=1):
+                fields = line.split()
+                if not fields or fields[0] != "FLASER":
+                    continue
+                try:
+                    count = int(fields[1])
+                    if count < 2:
+                        raise ValueError(f"{count} beams; a scan needs at least 2")
+                    values = fields[2 : 2 + count]
+                    trailer = fields[2 + count : 2 + count + FLASER_TRAILER]
+                    if len(values) != count or len(trailer) != FLASER_TRAILER:
+                        raise ValueError("too few fields")
+                    pose = [float(v) for v in trailer[0:3]]
+                    if not all(math.isfinite(v) for v in pose):
+                        raise ValueError(f"pose {pose} is not finite")
+                    ranges.append([float(v) for v in values])
+                    poses.append(pose)
+                    odometry.append([float(v) for v in trailer[3:6]])
+                    stamps.append(float(trailer[6]))
+                except (IndexError, ValueError) as exc:
+                    raise ValueError(f"{source}:{number}: malformed FLASER line ({exc})") from exc
+                if len(ranges[-1]) != len(ranges[0]):
+                    raise ValueError(
+                        f"{source}:{number}: {len(ranges[-1])} beams, but the first "
+                        f"scan has {len(ranges[0])}"
+                    )
+    except (EOFError, gzip.BadGzipFile) as exc:
+        raise ValueError(
+            f"{source} is cut short: its compressed data ends after line {number} "
+            f"({len(ranges)} scans read); `gzip -dc` recovers what is there ({exc})"
+        ) from exc
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{source} is not a text CARMEN log (nor gzip-compressed one): byte "
+            f"{exc.start} of line {number + 1} is not text"
+        ) from exc
     if not ranges:
         raise ValueError(f"{source} holds no FLASER message")
     return CarmenLog(np.array(ranges), np.array(poses), np.array(odometry), np.array(stamps))

@@ -88,6 +88,45 @@ def test_reader_rejects_bad_files(tmp_path: Path) -> None:
         read_carmen(empty)
 
 
+LINE = "FLASER 4 1 2 3 4 1.0 2.0 0.5 1.1 2.1 0.6 3.25 host 3.3\n"
+
+
+def test_reader_tells_compressed_logs_by_their_bytes_and_tabs_apart(tmp_path: Path) -> None:
+    # A gzipped log without the .gz suffix failed on decoding; tabs hid every scan.
+    renamed = tmp_path / "SCANS.LOG"
+    renamed.write_bytes(gzip.compress((LINE * 3).encode()))
+    assert len(read_carmen(renamed)) == 3
+    tabbed = tmp_path / "tabbed.log"
+    tabbed.write_text(LINE.replace(" ", "\t") * 2)
+    assert len(read_carmen(tabbed)) == 2
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("FLASER 1 2.0 1.0 2.0 0.5 1.1 2.1 0.6 3.25 host 3.3\n", "at least 2"),
+        (LINE.replace("1.0 2.0 0.5", "nan 2.0 0.5"), "not finite"),
+    ],
+)
+def test_reader_refuses_scans_it_cannot_use(tmp_path: Path, text: str, match: str) -> None:
+    path = tmp_path / "odd.log"
+    path.write_text(LINE + text)
+    with pytest.raises(ValueError, match=rf"odd\.log:2: malformed FLASER line \(.*{match}"):
+        read_carmen(path)
+
+
+def test_reader_names_a_compressed_log_cut_short(tmp_path: Path) -> None:
+    whole = gzip.compress((LINE * 2000).encode())
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(whole[: len(whole) // 2])
+    with pytest.raises(ValueError, match=r"cut\.log\.gz is cut short.*scans read"):
+        read_carmen(cut)
+    binary = tmp_path / "binary.log"
+    binary.write_bytes(bytes(range(128, 256)))
+    with pytest.raises(ValueError, match="is not a text CARMEN log"):
+        read_carmen(binary)
+
+
 def test_mapping_the_aces_log_reproduces_aces3() -> None:
     log_path, reference_path = aces_paths()
     log = read_carmen(log_path)
