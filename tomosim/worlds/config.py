@@ -116,6 +116,11 @@ class FloorplanConfig:
                 f"height {self.height} m is too small: use at least {least_height} m "
                 "(a room on each side of the widest corridor)"
             )
+        if self.corridor_width[0] <= 2 * self.robot_clearance:
+            raise ValueError(
+                f"corridors ({self.corridor_width[0]} m) must be wider than a robot "
+                f"({2 * self.robot_clearance} m)"
+            )
         if self.door_width[0] <= 2 * self.robot_clearance:
             raise ValueError(
                 f"doors ({self.door_width[0]} m) must be wider than a robot "
