@@ -1,0 +1,219 @@
+"""Check the mergers on floors without a known truth, by consistency around cycles of three.
+
+The Halmstad data set maps four floors in several sessions each; only the E5
+floor's pairs have a known transform (``bench_real_maps.py sessions``). On the
+other floors (F5: 14 sessions, HIH and KPT4A: 4 each) every pair of sessions
+is merged, and every three sessions whose three pairs are all accepted form a
+cycle: the transform from C to A must be that from B to A after that from C
+to B. How far the two put C's walls apart (cells RMS) is the cycle's error.
+
+A cycle of right answers closes only up to the sessions' own bending (each
+right answer may be 10-35 cells off the annotated fit on E5), so a cycle
+error of a few tens of cells is what bent maps give; one of hundreds of cells
+means an accepted answer is wrong. The report counts both, names the cycles
+above ``--look-cells``, and ``--overlays`` draws each accepted pair of those
+(map 1's walls black, map 2's placed by the answer red, on map 1's open
+space in grey) to look at.
+
+Every pair's answer is appended to ``pairs.csv`` as soon as it is known; the
+report is ``cycles.md``.
+
+Usage::
+
+    python scripts/bench_cycles.py                            # F5, HIH, KPT4A; the default
+    python scripts/bench_cycles.py --floors HIH --methods tomographic ros_akaze
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import itertools
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+import merging
+from merging.metrics import transform_error
+from tomosim.commands.script_args import positive_float, run_script
+from tomosim.data import maps_dir, maps_missing
+
+FLOORS = ("F5", "HIH", "KPT4A")
+"""The Halmstad floors without a known transform between their sessions."""
+WRONG_CELLS = 100.0
+"""A cycle missing by more than this (5 m at 0.05 m) holds a wrong accepted answer:
+far beyond what sessions bend by."""
+
+
+@dataclass(frozen=True)
+class Answer:
+    """One method's answer for one pair of sessions (map 2 = ``second`` onto ``first``)."""
+
+    floor: str
+    first: str
+    second: str
+    method: str
+    accepted: bool
+    confidence: float
+    seconds: float
+    matrix: NDArray[np.float64]
+    reason: str
+
+
+def sessions(folder: Path, floor: str) -> list[str]:
+    """The names of ``floor``'s sessions in ``folder``, in order."""
+    return sorted(path.stem for path in folder.glob(f"{floor}_*.yaml"))
+
+
+def merge_floor(
+    folder: Path, floor: str, methods: list[str], writer: csv.DictWriter, handle
+) -> list[Answer]:
+    """Every method on every unordered pair of ``floor``'s sessions; rows written as they come."""
+    names = sessions(folder, floor)
+    grids = {name: merging.load_map(folder / f"{name}.yaml") for name in names}
+    answers: list[Answer] = []
+    for first, second in itertools.combinations(names, 2):
+        for method in methods:
+            start = time.perf_counter()
+            result = merging.estimate_transform(grids[first], grids[second], method=method, rng=0)
+            seconds = time.perf_counter() - start
+            answer = Answer(floor, first, second, method, bool(result.accepted),
+                            float(result.confidence), seconds, result.matrix,
+                            result.reason)  # fmt: skip
+            answers.append(answer)
+            writer.writerow({
+                "floor": floor, "first": first, "second": second, "method": method,
+                "accepted": answer.accepted, "confidence": round(answer.confidence, 4),
+                "seconds": round(seconds, 4), "matrix": json.dumps(result.matrix.tolist()),
+                "reason": answer.reason,
+            })  # fmt: skip
+            handle.flush()
+        print(f"  {floor}: {first} | {second}", end="\r", file=sys.stderr)
+    print(file=sys.stderr)
+    return answers
+
+
+def cycles(answers: list[Answer], walls: dict[str, NDArray]) -> list[tuple[str, str, str, float]]:
+    """``(a, b, c, error)`` for every three sessions whose three pairs are all accepted."""
+    found = {(x.first, x.second): x.matrix for x in answers if x.accepted}
+    names = sorted({x.first for x in answers} | {x.second for x in answers})
+    closed = []
+    for a, b, c in itertools.combinations(names, 3):
+        if (a, b) in found and (b, c) in found and (a, c) in found:
+            chained = found[(a, b)] @ found[(b, c)]
+            error = transform_error(chained, found[(a, c)], walls[c])[0]
+            closed.append((a, b, c, float(error)))
+    return closed
+
+
+def overlay(first: NDArray, second: NDArray, matrix: NDArray, path: Path) -> None:
+    """Save map 1's walls (black) and map 2's placed by ``matrix`` (red) on map 1's open space."""
+    from PIL import Image
+
+    rows, cols = first.shape
+    image = np.full((rows, cols, 3), 255, dtype=np.uint8)
+    image[first == 0] = (230, 230, 230)
+    image[first > 50] = (0, 0, 0)
+    ys, xs = np.nonzero(second > 50)
+    placed = np.column_stack([xs, ys, np.ones(len(xs))]) @ matrix.T
+    x, y = np.rint(placed[:, 0]).astype(int), np.rint(placed[:, 1]).astype(int)
+    inside = (x >= 0) & (x < cols) & (y >= 0) & (y < rows)
+    image[y[inside], x[inside]] = (215, 25, 28)
+    drawn_rows, drawn_cols = np.nonzero((image != 255).any(axis=2))
+    if len(drawn_rows):  # the maps' part of the canvas, with a margin
+        low_row, low_col = max(drawn_rows.min() - 20, 0), max(drawn_cols.min() - 20, 0)
+        image = image[low_row : drawn_rows.max() + 21, low_col : drawn_cols.max() + 21]
+    Image.fromarray(image[::-1]).save(path)  # row 0 of the grid is the bottom
+
+
+def report(answers: list[Answer], closed: dict[tuple[str, str], list], look: float) -> list[str]:
+    """The Markdown report: per floor and method, acceptance and how the cycles close."""
+    lines = [
+        "| floor | method | pairs | accepted | cycles | median error (cells) | max | "
+        f"above {look:.0f} | above {WRONG_CELLS:.0f} (a wrong answer) | median s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    flagged = []
+    for (floor, method), triples in closed.items():
+        mine = [x for x in answers if x.floor == floor and x.method == method]
+        errors = np.array([t[3] for t in triples])
+        median = f"{np.median(errors):.1f}" if len(errors) else "-"
+        worst = f"{errors.max():.1f}" if len(errors) else "-"
+        seconds = np.median([x.seconds for x in mine])
+        lines.append(
+            f"| {floor} | {method} | {len(mine)} | {sum(x.accepted for x in mine)} | "
+            f"{len(triples)} | {median} | {worst} | {int((errors > look).sum())} | "
+            f"{int((errors > WRONG_CELLS).sum())} | {seconds:.3f} |"
+        )
+        flagged += [(floor, method, *t) for t in triples if t[3] > look]
+    if flagged:
+        lines += ["", f"Cycles missing by more than {look:.0f} cells:", ""]
+        lines += [f"- {f} {m}: {a} -> {b} -> {c}: {e:.1f} cells" for f, m, a, b, c, e in flagged]
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    parser.add_argument("--floors", nargs="+", default=list(FLOORS), choices=list(FLOORS))
+    parser.add_argument("--methods", nargs="+", default=["tomographic"])
+    parser.add_argument("--look-cells", type=positive_float, default=30.0,
+                        help="name the cycles missing by more than this (cells RMS)")  # fmt: skip
+    parser.add_argument("--overlays", action="store_true",
+                        help="draw the accepted pairs of the cycles named")  # fmt: skip
+    parser.add_argument("--out", type=Path, default=Path("results/bench_cycles"))
+    args = parser.parse_args(argv)
+    folder = maps_dir()
+    if folder is None:
+        print(f"error: {maps_missing()}", file=sys.stderr)
+        return 1
+    unknown = sorted(set(args.methods) - set(merging.available_methods()))
+    if unknown:
+        print(f"error: unknown method(s) {unknown}; choose from {merging.available_methods()}",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    halmstad = folder / "halmstad"
+    args.out.mkdir(parents=True, exist_ok=True)
+    csv_path = args.out / "pairs.csv"
+    answers: list[Answer] = []
+    closed: dict[tuple[str, str], list] = {}
+    with csv_path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=["floor", "first", "second", "method",
+                                                    "accepted", "confidence", "seconds",
+                                                    "matrix", "reason"])  # fmt: skip
+        writer.writeheader()
+        for floor in args.floors:
+            names = sessions(halmstad, floor)
+            if len(names) < 3:
+                print(f"error: {halmstad} holds {len(names)} sessions of {floor}; a cycle needs 3",
+                      file=sys.stderr)  # fmt: skip
+                return 1
+            found = merge_floor(halmstad, floor, args.methods, writer, handle)
+            answers += found
+            walls = {name: merging.load_map(halmstad / f"{name}.yaml").data for name in names}
+            for method in args.methods:
+                mine = [x for x in found if x.method == method]
+                closed[(floor, method)] = cycles(mine, walls)
+                if not args.overlays:
+                    continue
+                named = {p for t in closed[(floor, method)] if t[3] > args.look_cells
+                         for p in ((t[0], t[1]), (t[1], t[2]), (t[0], t[2]))}  # fmt: skip
+                for a, b in sorted(named):
+                    answer = next(x for x in mine if (x.first, x.second) == (a, b))
+                    overlay(walls[a], walls[b], answer.matrix,
+                            args.out / f"{method}_{a}_{b}.png")  # fmt: skip
+    lines = ["# Cycles of three on floors without a known truth", "",
+             *report(answers, closed, args.look_cells)]  # fmt: skip
+    md_path = args.out / "cycles.md"
+    md_path.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    print(f"\nrows: {csv_path}  report: {md_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    run_script(main, __file__)

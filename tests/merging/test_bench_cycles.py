@@ -1,0 +1,58 @@
+"""``scripts/bench_cycles.py``: cycles of three accepted answers, and how far they miss."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+import numpy as np
+
+from merging.transforms import rigid_matrix
+
+from .conftest import REPO_ROOT
+
+
+def load_script():
+    path = REPO_ROOT / "scripts" / "bench_cycles.py"
+    spec = importlib.util.spec_from_file_location("bench_cycles", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses resolve their module by name
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> None:
+    bench = load_script()
+    walls = np.zeros((60, 60), dtype=np.int8)
+    walls[10, 5:55] = walls[5:55, 40] = 100
+    grids = {name: walls for name in "abcd"}
+    b_in_a, c_in_b = rigid_matrix(12.0, -3.0, 0.2), rigid_matrix(-4.0, 7.0, -0.5)
+
+    def answer(first: str, second: str, matrix, accepted: bool = True):
+        return bench.Answer("F", first, second, "m", accepted, 0.9, 0.01, matrix, "")
+
+    consistent = [
+        answer("a", "b", b_in_a),
+        answer("b", "c", c_in_b),
+        answer("a", "c", b_in_a @ c_in_b),
+        answer("a", "d", np.eye(3), accepted=False),  # no cycle through a refused pair
+    ]
+    [(a, b, c, error)] = bench.cycles(consistent, grids)
+    assert (a, b, c) == ("a", "b", "c") and error < 1e-9
+    wrong = [*consistent[:2], answer("a", "c", rigid_matrix(300.0, 0.0, 0.0) @ b_in_a @ c_in_b)]
+    [(_, _, _, error)] = bench.cycles(wrong, grids)
+    assert error > bench.WRONG_CELLS
+    lines = bench.report(wrong, {("F", "m"): bench.cycles(wrong, grids)}, 30.0)
+    assert "| F | m | 3 | 3 | 1 |" in lines[2] and "a -> b -> c" in lines[-1]
+
+
+def test_unknown_methods_are_named(capsys, tmp_path) -> None:
+    bench = load_script()
+    status = bench.main(["--methods", "nonesuch", "--floors", "HIH", "--out", str(tmp_path)])
+    error = capsys.readouterr().err
+    if bench.maps_dir() is None:
+        assert status == 1 and "maps" in error
+    else:
+        assert status == 2 and "nonesuch" in error
+    assert not (tmp_path / "pairs.csv").exists()
