@@ -323,3 +323,21 @@ def test_an_unwritable_results_file_is_one_line(
     err = capsys.readouterr().err
     assert_one_line_error(err, "cannot write", "rows.csv", "--out")
     assert "Errno" not in err
+
+
+def test_a_map_has_one_name_however_it_is_typed(tmp_path: Path, monkeypatch) -> None:
+    # Keys were the path as typed: a resume with ./odd/a.yaml ran odd/a.yaml again
+    # and stored it twice, and a.yaml typed in another folder was skipped as done.
+    (tmp_path / "odd").mkdir()
+    monkeypatch.chdir(tmp_path)
+    typed = ("odd/a.yaml", "./odd/a.yaml", str(tmp_path / "odd" / "a.yaml"))
+    names = {SweepPlan(worlds=(world,)).worlds for world in typed}
+    assert names == {(str(tmp_path / "odd" / "a.yaml"),)}
+    monkeypatch.chdir(tmp_path / "odd")
+    assert SweepPlan(worlds=("a.yaml",)).worlds == next(iter(names))
+    monkeypatch.chdir(tmp_path)
+    assert SweepPlan(worlds=("other/a.yaml",)).worlds != next(iter(names))
+    with pytest.raises(ValueError, match="worlds lists a value twice"):
+        SweepPlan(worlds=("odd/a.yaml", "./odd/a.yaml"))
+    with pytest.raises(ValueError, match="worlds lists a value twice"):
+        SweepPlan(worlds=("7", "007"))

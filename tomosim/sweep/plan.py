@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -37,7 +38,9 @@ class SweepPlan:
     Attributes
     ----------
     worlds : tuple of str
-        Generated floor-plan seeds (``"0"``) or map_server YAML paths.
+        Generated floor-plan seeds (``"0"``) or map_server YAML paths, kept as
+        their absolute paths (:func:`world_name`: episodes are found by them
+        when a sweep resumes).
     robots : tuple of int
         Team sizes.
     policies : tuple of str
@@ -81,7 +84,7 @@ class SweepPlan:
                 raise ValueError(f"{name} must be a tuple of values, got {values!r}")
             if len(values) == 0:
                 raise ValueError(f"a sweep needs at least one value of {name}")
-        object.__setattr__(self, "worlds", tuple(str(world) for world in self.worlds))
+        object.__setattr__(self, "worlds", tuple(world_name(world) for world in self.worlds))
         for name, least in (("robots", 1), ("seeds", 0)):
             bad = [v for v in getattr(self, name) if not _whole(v) or v < least]
             if bad:
@@ -161,6 +164,19 @@ class SweepPlan:
         if self.record_dir is not None:
             config = replace(config, record=self.record_dir / f"{_file_safe(key)}.rrd")
         return Episode(key, config)
+
+
+def world_name(world: object) -> str:
+    """How a sweep names a world: a seed as its number, a map file by its absolute path.
+
+    A resumed sweep finds its episodes by name, so one map must have one name
+    however it was typed (``odd/a.yaml``, ``./odd/a.yaml`` or ``a.yaml`` from
+    ``odd/``), and two maps of one file name in two folders two names.
+    """
+    text = str(world)
+    if text.strip().lstrip("+-").isdigit():
+        return str(int(text))
+    return os.path.abspath(os.path.expanduser(text))
 
 
 def episode_key(world: str, robots: int, policy: str, method: str, seed: int) -> str:
