@@ -9,13 +9,18 @@ of them to trust together:
    of two accepted pairs through a third map more often than it agrees is
    dropped, the worst first; a lone triangle that does not close loses its
    least confident pair, the one that disagrees with the chain of the two
-   more confident ones;
+   more confident ones. "Disagrees" means by more than
+   :data:`CONTRADICTION_CELLS`, or :data:`BENT_CONTRADICTION_CELLS` when a
+   pair of the comparison was vouched for as maps that bend (:func:`bends`);
 3. it links the rest by a maximum spanning forest weighted by confidence
    (:func:`scipy.sparse.csgraph.minimum_spanning_tree` on ``2 - confidence``),
    so that one weak wrong pair cannot override a chain of confident ones;
 4. in one breadth-first walk per linked group it composes each grid's
-   transform into its group's *root*, the group's lowest index, in cells
-   and, for georeferenced grids, in metres;
+   transform into its group's *root*, the group's lowest index; a group
+   holding pairs of bending maps and a cycle is then placed by all of its
+   pairs at once (:func:`merging.posegraph.adjust_poses`), since a chain of
+   bent links adds up their errors; transforms follow in metres too for
+   georeferenced grids;
 5. it reports accepted pairs that the forest does not use and that disagree
    with it (a contradiction around a longer cycle) as dropped too.
 
@@ -38,6 +43,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 from merging.api import DEFAULT_METHOD, RngLike, as_generator, check_method, estimate_transform
 from merging.fusion import FusedMap, fuse
 from merging.grid import OccupancyGrid, occupied_cells, validate_cells
+from merging.posegraph import adjust_poses
 from merging.result import MergeResult
 from merging.transforms import apply_transform, cells_to_metres, matrix_to_pose, wrap_angle
 
@@ -46,6 +52,13 @@ CONTRADICTION_CELLS = 10.0
 chain of others to be dropped: half a metre at 0.05 m. Transforms chained from
 right merges of drifting robots' maps stay within a few cells of each other; a
 wrong match is off by a room or by tens of degrees."""
+BENT_CONTRADICTION_CELLS = 60.0
+"""The same for a comparison involving a pair vouched for as maps that bend
+(separate sessions of a floor, :func:`bends`): each such pair is right only
+to within the bending, so the three of a triangle of right pairs miss by up to
+47 cells RMS (42 on the Halmstad E5 floor's 122 accepted triangles, 47 on
+F5's 39: ``scripts/bench_cycles.py``), where the wrong placements the
+bending evidence once accepted lay 285-910 cells off. Three metres at 0.05 m."""
 MAX_CHECK_POINTS = 2000
 """Occupied cells of a grid used to measure how far two transforms of it differ."""
 TREE_WEIGHT_OFFSET = 2.0
@@ -241,6 +254,7 @@ def link_maps(
     trusted, notes = consistent_pairs(usable, points)
     tree = _spanning_forest(count, trusted)
     roots, transforms = _compose(count, tree, trusted)
+    transforms = _adjust_bent_groups(roots, transforms, trusted, points)
     late, late_notes = _contradicting_tree(trusted, tree, roots, transforms, points)
     dropped = tuple(sorted(set(usable) - set(trusted))) + late
     groups = tuple(
@@ -378,7 +392,8 @@ def consistent_pairs(
 
     For every triangle ``i < j < k`` of usable pairs, the chain ``(i, j) @ (j, k)``
     is compared with ``(i, k)`` over grid ``k``'s occupied cells: the triangle
-    *closes* within :data:`CONTRADICTION_CELLS`, or it does not. A pair's score
+    *closes* within :data:`CONTRADICTION_CELLS` (:data:`BENT_CONTRADICTION_CELLS`
+    when one of its pairs :func:`bends`), or it does not. A pair's score
     is the number of its triangles that do not close minus those that do.
     While some pair scores above zero, the one scoring highest (ties: the least
     confident, then the highest pair) is dropped and the scores recounted.
@@ -403,7 +418,8 @@ def consistent_pairs(
                         continue
                     chain = kept[(i, j)].matrix @ kept[(j, k)].matrix
                     off = _disagreement(chain, kept[(i, k)].matrix, points[k])
-                    vote = 1 if off > CONTRADICTION_CELLS else -1
+                    triangle = (kept[(i, j)], kept[(j, k)], kept[(i, k)])
+                    vote = 1 if off > _tolerance(*triangle) else -1
                     for key, other in (((i, j), k), ((j, k), i), ((i, k), j)):
                         score[key] += vote
                         if vote > 0 and off > worst.get(key, (0.0, 0))[0]:
@@ -419,6 +435,46 @@ def consistent_pairs(
             f"disagrees by {off:.1f} cells RMS with the chain through grid {via}"
         )
         del kept[drop]
+
+
+def bends(result: MergeResult) -> bool:
+    """Whether ``result`` was vouched for as maps that bend against each other.
+
+    The default method vouches for separate sessions of a floor by robust
+    evidence (:mod:`merging.verdict`): its ``robust_confidence`` then exceeds
+    its ``close_confidence``. Such a transform is right only to within the
+    bending, up to half a metre. Results without that evidence (other
+    methods) count as close fits.
+    """
+    evidence = result.evidence
+    robust, close = evidence.get("robust_confidence"), evidence.get("close_confidence")
+    return robust is not None and close is not None and robust > close
+
+
+def _tolerance(*results: MergeResult) -> float:
+    """Cells RMS within which transforms chained from ``results`` must agree."""
+    if any(bends(result) for result in results):
+        return BENT_CONTRADICTION_CELLS
+    return CONTRADICTION_CELLS
+
+
+def _adjust_bent_groups(
+    roots: tuple[int, ...],
+    transforms: tuple[NDArray[np.float64], ...],
+    pairs: Mapping[Pair, MergeResult],
+    points: Sequence[NDArray[np.float64]],
+) -> tuple[NDArray[np.float64], ...]:
+    """Step 4's second half: each group with a bending pair and a cycle, placed by all
+    of its pairs (:func:`merging.posegraph.adjust_poses`); the others as the tree has them."""
+    adjusted = list(transforms)
+    for root in sorted(set(roots)):
+        members = [k for k, r in enumerate(roots) if r == root]
+        inside = {key: r for key, r in pairs.items() if roots[key[0]] == root}
+        if len(inside) < len(members) or not any(bends(r) for r in inside.values()):
+            continue  # a tree (no cycle to spread bending over) or maps that fit closely
+        matrices = {key: r.matrix for key, r in inside.items()}
+        adjusted = adjust_poses(adjusted, root, members, matrices, points)
+    return tuple(adjusted)
 
 
 def _spanning_forest(count: int, pairs: Mapping[Pair, MergeResult]) -> tuple[Pair, ...]:
@@ -480,7 +536,8 @@ def _contradicting_tree(
             continue
         implied = np.linalg.inv(transforms[i]) @ transforms[j]
         off = _disagreement(implied, result.matrix, points[j])
-        if off > CONTRADICTION_CELLS:
+        group = [pairs[key] for key in tree if roots[key[0]] == roots[i]]
+        if off > _tolerance(result, *group):
             dropped.append((i, j))
             turn = np.degrees(abs(float(wrap_angle(matrix_to_pose(implied)[2] - result.rotation))))
             notes.append(

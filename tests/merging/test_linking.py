@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -210,3 +212,66 @@ def test_merge_all_takes_a_generator_made_from_a_random_state() -> None:
     assert result.linking.count == 2
     with pytest.raises(KeyError, match="no grid 7"):
         result.linking.group(7)
+
+
+def bent(result: MergeResult) -> MergeResult:
+    """``result`` as vouched for by the evidence for maps that bend."""
+    evidence = {"close_confidence": 0.1, "robust_confidence": result.confidence}
+    return replace(result, evidence=evidence)
+
+
+def test_bending_maps_are_placed_by_every_pair_not_a_chain() -> None:
+    """Four bent sessions: each pair off by up to 12 cells, all right within that.
+
+    Around cycles they miss each other by up to 34 cells, which would drop right
+    pairs as contradictions for maps that fit closely; along the tree 0-1-2-3 the
+    errors add up and grid 3 lands 36 cells off, where its own pairs with grids 0
+    and 1 are right within 12.
+    """
+    grids = robot_grids()
+    errors = {(0, 1): 12, (1, 2): 12, (2, 3): 12, (0, 2): -10, (0, 3): -12, (1, 3): -6}
+    confidence = {(0, 1): 0.99, (1, 2): 0.98, (2, 3): 0.97}  # the tree: 0-1-2-3
+
+    def off_by(i: int, j: int, cells: float) -> np.ndarray:  # shifted along BASE's x
+        return np.linalg.inv(POSES[i]) @ translation(cells, 0.0) @ POSES[j]
+
+    table = {key: (off_by(*key, e), confidence.get(key, 0.9), True) for key, e in errors.items()}
+    assert link_table(grids, table).linking.dropped  # as close fits they contradict
+    pairs = {key: bent(result) for key, result in table_pairs(table).items()}
+    linking = link_maps(grids, pairs)
+    assert linking.dropped == () and linking.tree == ((0, 1), (1, 2), (2, 3))
+    points = np.argwhere(grids[3] == 100)[:, ::-1].astype(float)
+
+    def miss(matrix: np.ndarray) -> float:
+        placed = apply_transform(matrix, points) - apply_transform(truth(0, 3), points)
+        return float(np.sqrt(np.mean(np.sum(placed**2, axis=1))))
+
+    along_tree = table[(0, 1)][0] @ table[(1, 2)][0] @ table[(2, 3)][0]
+    assert miss(along_tree) == pytest.approx(36.0)
+    assert miss(linking.transforms[3]) < 12.0  # no farther off than its own pairs
+
+
+def test_sessions_of_one_floor_link_as_their_pairs_are_right(maps_folder) -> None:
+    """Five E5 sessions, all pairs: every linked transform right by the floor's rule."""
+    import json
+
+    from merging import load_map
+    from merging.metrics import transform_error
+
+    folder = maps_folder / "halmstad"
+    names = ["E5_01", "E5_02", "E5_03", "E5_12", "E5_14"]  # chained along a tree: 6 of 20 off
+    grids = [load_map(folder / f"{name}.yaml") for name in names]
+    truths = json.loads((folder / "truth_E5.json").read_text())["pairs"]
+    linking = merge_all(grids).linking
+    judged = 0
+    for key, entry in truths.items():
+        first, second = key.split("|")
+        if first not in names or second not in names:
+            continue
+        i, j = names.index(first), names.index(second)
+        relative = linking.relative(i, j)
+        assert relative is not None, key
+        error = transform_error(relative, np.array(entry["matrix_cells"]), grids[j].data)[0]
+        assert error <= max(1.5 * entry["rms_cells"], entry["rms_cells"] + 10), key
+        judged += 1
+    assert judged == 20
