@@ -486,3 +486,24 @@ def test_other_system_errors_are_not_taken_for_signals() -> None:
 
     with pytest.raises(SystemError, match="not a signal"), interrupts_unwrapped():
         raise SystemError("not a signal")
+
+
+def test_an_interrupt_before_the_run_began_says_nothing_was_recorded(tmp_path: Path) -> None:
+    # It said the file "keeps the run up to step 0", while an earlier run's file of
+    # that name stood untouched (or there was none).
+    from tomosim.commands.explore import kept
+    from tomosim.recording import Recorder
+
+    earlier = tmp_path / "earlier.rrd"
+    earlier.write_bytes(b"an earlier run")
+    assert kept(earlier, 0, started=False) == (
+        f"stopped before the run began; nothing was recorded ({earlier} is an earlier "
+        "run's, left as it was)"
+    )
+    missing = tmp_path / "new.rrd"
+    assert kept(missing, 0, started=False).endswith("nothing was recorded")
+    assert "keeps the run up to step 12" in kept(missing, 12)
+    recorder = Recorder.open(record=missing)
+    assert not recorder.started
+    recorder.close()
+    assert not missing.exists()

@@ -252,9 +252,11 @@ def run(args: argparse.Namespace) -> int:
             # The recording's own last step: the signal may land after a step was logged
             # and before the progress line heard of it.
             step = recorder.last_step if recorder is not None else progress.done
-            stopped = Stopped.of(interrupt, kept(config.record, step))
+            started = recorder is None or recorder.started
+            stopped = Stopped.of(interrupt, kept(config.record, step, started=started))
             if recorder is not None:
-                recorder.log_interrupted(stopped.why)
+                if started:
+                    recorder.log_interrupted(stopped.why)
                 _close_quietly(recorder)
             raise stopped from None
         if recorder is not None:
@@ -271,10 +273,17 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def kept(record: Path | None, step: int) -> str:
-    """What an interrupted run leaves behind, and how to look at it."""
+def kept(record: Path | None, step: int, *, started: bool = True) -> str:
+    """What an interrupted run leaves behind, and how to look at it.
+
+    ``started``: whether the recording had begun (it is written from the run's
+    first step on; before that an existing file of its name is left alone).
+    """
     if record is None:
         return f"stopped at step {step}; nothing was recorded (--no-record)"
+    if not started:
+        existing = f" ({record} is an earlier run's, left as it was)" if record.exists() else ""
+        return f"stopped before the run began; nothing was recorded{existing}"
     return (
         f"{record} keeps the run up to step {step} and says it was interrupted; "
         f"see it with: tomosim review {record}"

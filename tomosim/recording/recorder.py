@@ -514,6 +514,11 @@ class Recorder:
         self.log_status(f"{ended}: {reason}" if reason else ended)
 
     @property
+    def started(self) -> bool:
+        """Whether :meth:`log_start` has logged the run (before it, nothing is written)."""
+        return self._status is not None
+
+    @property
     def last_step(self) -> int:
         """The step of the latest state logged (what the recording keeps the run up to)."""
         return self._step
