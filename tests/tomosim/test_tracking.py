@@ -158,22 +158,29 @@ def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
     assert taken.exception() is None and not taken.result().accepted
 
 
-def test_searches_fail_rather_than_hang_once_the_worker_has_ended(
-    monkeypatch: pytest.MonkeyPatch,
+def test_searches_come_back_when_the_worker_has_ended(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
+    # A killed worker failed every search with RuntimeError, and `tomosim explore`
+    # ended in a traceback; its searches now run here, with the same results.
     from merging.grid import OccupancyGrid
     from tomosim.team import worker as worker_module
 
     own = worker_module._Worker()  # a worker of this test's own, not the shared one
     monkeypatch.setattr(WorkerSearches, "_worker", own)
-    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    searches_ = WorkerSearches()
+    assert WorkerSearches.wait_ready(60.0)
+    sent = searches_.submit(grid, grid, method="tomographic", seed=0)
     own.process.kill()
     own.process.wait(timeout=60)
-    searches_ = WorkerSearches()
-    for seed in range(3):  # sent, waiting, or submitted after the end: each one fails
-        job = searches_.submit(grid, grid, method="tomographic", seed=seed)
-        with pytest.raises(RuntimeError, match="worker ended"):
-            job.result(timeout=60)
+    later = [searches_.submit(grid, grid, method="tomographic", seed=s) for s in (1, 2)]
+    for seed, job in enumerate([sent, *later]):
+        expected = InlineSearches().submit(grid, grid, method="tomographic", seed=seed).result()
+        np.testing.assert_array_equal(searches_.wait(job, later).matrix, expected.matrix)
+    assert "merge search worker ended" in caplog.text
     for pipe in (own.process.stdin, own.process.stdout):
         assert pipe is not None
         pipe.close()

@@ -27,6 +27,7 @@ a search runs.
 
 from __future__ import annotations
 
+import logging
 import os
 import pickle
 import subprocess
@@ -35,6 +36,7 @@ import threading
 import time
 import warnings
 from collections.abc import Sequence
+from concurrent import futures
 from concurrent.futures import Future
 from typing import Any, Protocol
 
@@ -42,6 +44,12 @@ from merging import estimate_transform
 from merging.grid import OccupancyGrid
 from merging.result import MergeResult
 from tomosim.search_worker import READY
+
+LOG = logging.getLogger(__name__)
+"""Says when the worker has ended (Python prints warnings to stderr unless told otherwise)."""
+TAKE_BACK_POLL_S = 0.05
+"""Seconds between looks, while the worker runs a search the caller waits for, at whether
+the worker has ended and handed it back."""
 
 
 class Searches(Protocol):
@@ -130,7 +138,7 @@ class _Worker:
         )
         self.pid = os.getpid()
         self.lock = threading.Condition()
-        self.futures: dict[int, _Job] = {}  # sent to the worker, not answered yet
+        self.futures: dict[int, tuple[_Job, tuple[Any, ...]]] = {}  # sent, not answered yet
         self.queued: dict[int, tuple[_Job, tuple[Any, ...]]] = {}  # not sent yet, in order
         self.next_job = 0
         self.ended: RuntimeError | None = None  # set once the worker is known to have ended
@@ -144,26 +152,28 @@ class _Worker:
         with self.lock:
             future = _Job(self.next_job)
             self.next_job += 1
-            if self.ended is None:
-                self.queued[future.number] = (future, job)
-                self.lock.notify_all()
-                return future
-        future.set_exception(self.ended)
-        return future
+            # Once the worker has ended, jobs wait here for the caller to take them.
+            self.queued[future.number] = (future, job)
+            self.lock.notify_all()
+            return future
 
     def _end(self) -> None:
-        """The worker has ended: fail every job sent or waiting, and every later one."""
+        """The worker has ended (killed, say): its jobs, sent or waiting, and every later
+        one wait for the caller to run them itself (:meth:`WorkerSearches.wait`), with
+        the same results."""
         with self.lock:
+            if self.ended is not None:
+                return
             self.ended = RuntimeError(
                 f"the merge search worker ended (exit status {self.process.poll()})"
             )
-            failed = [*self.futures.values(), *(f for f, _ in self.queued.values())]
+            self.queued = {**self.futures, **self.queued}
             self.futures.clear()
-            self.queued.clear()
             self.lock.notify_all()
-        for future in failed:
-            if not future.done():
-                future.set_exception(self.ended)
+        LOG.warning(
+            "%s; merge searches run in this process from now on, with the same results",
+            self.ended,
+        )
 
     def wait_ready(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds for the worker to be warmed up; whether it is."""
@@ -191,7 +201,7 @@ class _Worker:
                     return
                 number = next(iter(self.queued))
                 future, job = self.queued.pop(number)
-                self.futures[number] = future
+                self.futures[number] = (future, job)
             try:
                 stdin.write(pickle.dumps((number, *job), protocol=pickle.HIGHEST_PROTOCOL))
                 stdin.flush()
@@ -219,7 +229,7 @@ class _Worker:
                 self._end()
                 return
             with self.lock:
-                future = self.futures.pop(number)
+                future, _ = self.futures.pop(number)
                 self.lock.notify_all()
             if ok:
                 future.set_result(value)
@@ -275,17 +285,22 @@ class WorkerSearches:
         Rather than wait idle, this process runs ``search`` itself if the worker
         has not started it, and then each of ``others`` the worker has not
         started, until ``search`` is done: the worker and this process then
-        share the searches the caller needs now.
+        share the searches the caller needs now. Should the worker end (be
+        killed), its searches come back and are run here, with the same
+        results.
         """
         worker = self.worker()
-        for candidate in (search, *others):
-            if search.done():
-                break
-            job = worker.take(candidate)
-            if job is not None:
-                clock = time.process_time()
-                _search(job, candidate, as_worker=True)
-                WorkerSearches.cpu_seconds_here += time.process_time() - clock
+        while not search.done():
+            for candidate in (search, *others):
+                if search.done():
+                    break
+                job = worker.take(candidate)
+                if job is not None:
+                    clock = time.process_time()
+                    _search(job, candidate, as_worker=True)
+                    WorkerSearches.cpu_seconds_here += time.process_time() - clock
+            # The worker has it; should the worker end meanwhile, it comes back to take.
+            futures.wait([search], timeout=TAKE_BACK_POLL_S)
         return search.result()
 
 
