@@ -341,3 +341,27 @@ def test_a_map_has_one_name_however_it_is_typed(tmp_path: Path, monkeypatch) -> 
         SweepPlan(worlds=("odd/a.yaml", "./odd/a.yaml"))
     with pytest.raises(ValueError, match="worlds lists a value twice"):
         SweepPlan(worlds=("7", "007"))
+
+
+def test_an_episode_whose_process_died_is_named_not_awaited() -> None:
+    # A pool replaces a killed process but never hands back its episode: the sweep
+    # waited for it for ever.
+    import queue
+
+    from tomosim.sweep.executors import STARTED, WorkerDied, _check_alive, _drain
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    reports: queue.Queue = queue.Queue()
+    reports.put(("a|1", STARTED, os.getpid()))
+    reports.put(("b|1", STARTED, gone.pid))
+    reports.put(("a|1", 40, 0.5))
+    steps: list[tuple[str, int, float]] = []
+    running: dict[str, int] = {}
+    _drain(reports, lambda key, step, coverage: steps.append((key, step, coverage)), running)
+    assert steps == [("a|1", 40, 0.5)]
+    assert running == {"a|1": os.getpid(), "b|1": gone.pid}
+    with pytest.raises(WorkerDied, match=rf"episode b\|1 \(pid {gone.pid}\) died.*--resume"):
+        _check_alive(running)
+    del running["b|1"]
+    _check_alive(running)  # this process is alive

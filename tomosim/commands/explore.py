@@ -261,6 +261,10 @@ def run(args: argparse.Namespace) -> int:
             raise stopped from None
         if recorder is not None:
             _close_quietly(recorder)
+        if isinstance(exc, MemoryError):
+            raise CommandError(
+                f"out of memory ({one_line(exc)}): use a smaller world or fewer robots"
+            ) from exc
         if isinstance(exc, ValueError | OSError | Image.DecompressionBombError):
             raise failure(exc, args.world) from exc
         raise

@@ -27,7 +27,7 @@ from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
-from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, run_sweep
+from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, WorkerDied, run_sweep
 from tomosim.team import team_methods
 
 NAME = "sweep"
@@ -213,7 +213,12 @@ def run(args: argparse.Namespace) -> int:
                 f"{rows} of {len(episodes)} episodes are in {args.out}; run the same command "
                 "with --resume to run the rest",
             ) from None
-        if isinstance(exc, ValueError | ImportError | OSError):
+        if isinstance(exc, MemoryError):
+            raise CommandError(
+                f"out of memory ({one_line(exc)}): use smaller worlds or fewer --workers; "
+                "the rows written so far are kept (--resume goes on)"
+            ) from exc
+        if isinstance(exc, ValueError | ImportError | OSError | WorkerDied):
             raise CommandError(one_line(exc)) from exc
         raise
     progress.close(f"{outcome.ran} run, {outcome.skipped} already done")

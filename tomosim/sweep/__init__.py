@@ -6,7 +6,7 @@ so that a killed sweep loses nothing and a resumed one skips what is done; a
 sweep locks its file, so that two sweeps never write one file.
 """
 
-from tomosim.sweep.executors import EXECUTORS, run_sweep
+from tomosim.sweep.executors import EXECUTORS, WorkerDied, run_sweep
 from tomosim.sweep.plan import NO_MERGE, Episode, SweepPlan
 from tomosim.sweep.rows import ROW_FIELDS, ResultsFile, SweepLockedError, episode_row, run_one
 
@@ -18,6 +18,7 @@ __all__ = [
     "ResultsFile",
     "SweepLockedError",
     "SweepPlan",
+    "WorkerDied",
     "episode_row",
     "run_one",
     "run_sweep",

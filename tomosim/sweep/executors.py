@@ -46,6 +46,8 @@ POLL_S = 0.25
 """Seconds the parent waits for a finished episode before passing on progress reports."""
 ORPHAN_CHECK_S = 1.0
 """Seconds between a worker's checks that its parent is alive."""
+STARTED = -1
+"""The step of a worker's first report of an episode, whose value is the worker's pid."""
 PR_SET_PDEATHSIG = 1
 """Linux ``prctl`` option: the signal a process gets when its parent dies."""
 
@@ -236,18 +238,45 @@ def _start_worker(reports: Any, parent: int) -> None:
 
 def _pool_task(task: tuple[str, EpisodeConfig, dict[str, Any]]) -> dict[str, Any]:
     key, config, shared = task
+    _REPORTS.put((key, STARTED, os.getpid()))  # which process runs it, should it die
     return run_one(key, config, shared, _Reporter(key, _REPORTS))
 
 
-def _drain(reports: Any, on_step: Step | None) -> None:
-    """Pass every queued progress report to ``on_step``."""
+class WorkerDied(RuntimeError):
+    """A pool process died while running an episode (killed, out of memory, ...)."""
+
+
+def _drain(reports: Any, on_step: Step | None, running: dict[str, int]) -> None:
+    """Pass every queued progress report to ``on_step``; note in ``running`` which
+    process started which episode."""
     while True:
         try:
-            key, step, coverage = reports.get_nowait()
+            key, step, value = reports.get_nowait()
         except queue.Empty:
             return
-        if on_step is not None:
-            on_step(key, step, coverage)
+        if step == STARTED:
+            running[key] = int(value)
+        elif on_step is not None:
+            on_step(key, step, value)
+
+
+def _check_alive(running: dict[str, int]) -> None:
+    """Raise :class:`WorkerDied` if the process of a running episode is gone.
+
+    A pool replaces a dead process but never hands back its task, so without
+    this the sweep would wait for that episode for ever.
+    """
+    for key, pid in running.items():
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            raise WorkerDied(
+                f"the process running episode {key} (pid {pid}) died, killed or out of "
+                "memory; the rows written so far are kept: run the sweep again with "
+                "--resume to go on"
+            ) from None
+        except PermissionError:  # alive, under another user: not ours to judge
+            pass
 
 
 def _run_in_processes(
@@ -268,15 +297,22 @@ def _run_in_processes(
     pool = context.Pool(count, initializer=_start_worker, initargs=(reports, os.getpid()))
     try:
         finished = pool.imap_unordered(_pool_task, [(e.key, e.config, shared) for e in episodes])
+        running: dict[str, int] = {}  # episode -> the process that started it
+        done: set[str] = set()
         while True:
             try:
                 row = finished.next(timeout=POLL_S)
             except multiprocessing.TimeoutError:
-                _drain(reports, on_step)
+                _drain(reports, on_step, running)
+                for key in done & running.keys():
+                    del running[key]
+                _check_alive(running)
                 continue
             except StopIteration:
                 break
-            _drain(reports, on_step)
+            _drain(reports, on_step, running)
+            done.add(row["key"])
+            running.pop(row["key"], None)
             yield row
     finally:
         # Also on Ctrl-C, SIGTERM or an error: running episodes are stopped, not awaited.
