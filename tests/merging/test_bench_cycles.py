@@ -2,28 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-
 import numpy as np
 
 from merging.transforms import rigid_matrix
 
-from .conftest import REPO_ROOT
-
-
-def load_script():
-    path = REPO_ROOT / "scripts" / "bench_cycles.py"
-    spec = importlib.util.spec_from_file_location("bench_cycles", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses resolve their module by name
-    spec.loader.exec_module(module)
-    return module
+from .conftest import load_script
 
 
 def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> None:
-    bench = load_script()
+    bench = load_script("bench_cycles")
     walls = np.zeros((60, 60), dtype=np.int8)
     walls[10, 5:55] = walls[5:55, 40] = 100
     grids = {name: walls for name in "abcd"}
@@ -48,7 +35,7 @@ def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> Non
 
 
 def test_unknown_methods_are_named(capsys, tmp_path) -> None:
-    bench = load_script()
+    bench = load_script("bench_cycles")
     status = bench.main(["--methods", "nonesuch", "--floors", "HIH", "--out", str(tmp_path)])
     error = capsys.readouterr().err
     if bench.maps_dir() is None:

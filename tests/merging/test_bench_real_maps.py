@@ -2,24 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-
-from .conftest import REPO_ROOT
-
-
-def load_script():
-    path = REPO_ROOT / "scripts" / "bench_real_maps.py"
-    spec = importlib.util.spec_from_file_location("bench_real_maps", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses resolve their module by name
-    spec.loader.exec_module(module)
-    return module
+from .conftest import load_script
 
 
 def test_a_suite_of_two_groups_ends_with_their_pooled_medians() -> None:
-    bench = load_script()
+    bench = load_script("bench_real_maps")
 
     def row(group: str, method: str, seconds: float):
         return bench.Row(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -68,18 +69,23 @@ def e5_truth(maps_folder) -> dict:
     return json.loads((maps_folder / "halmstad" / "truth_E5.json").read_text())["pairs"]
 
 
+def merged_sessions(folder: Path, truth: dict, key: str) -> merging.MergeResult:
+    """The default's merge of the E5 sessions ``key`` ("A|B"), checked right by the
+    floor's rule (within ``max(1.5 rms, rms + 10)`` cells of the annotated fit)."""
+    first, second = (merging.load_map(folder / f"{name}.yaml") for name in key.split("|"))
+    entry = truth[key]
+    result = merging.estimate_transform(first, second)
+    tolerance = max(1.5 * entry["rms_cells"], entry["rms_cells"] + 10)
+    error = transform_error(result.matrix, np.array(entry["matrix_cells"]), second.data)[0]
+    assert error < tolerance, (key, error, tolerance)
+    return result
+
+
 @pytest.mark.parametrize("key", ["E5_05|E5_10", "E5_09|E5_08"])
 def test_sessions_of_one_floor_are_merged(maps_folder, e5_truth, key: str) -> None:
     # Two sessions that bend against each other: the close fit cannot vouch, the
     # robust evidence does.
-    folder = maps_folder / "halmstad"
-    first, second = (merging.load_map(folder / f"{name}.yaml") for name in key.split("|"))
-    entry = e5_truth[key]
-    result = merging.estimate_transform(first, second)
-    tolerance = max(1.5 * entry["rms_cells"], entry["rms_cells"] + 10)
-    assert transform_error(result.matrix, np.array(entry["matrix_cells"]), second.data)[0] < (
-        tolerance
-    )
+    result = merged_sessions(maps_folder / "halmstad", e5_truth, key)
     assert result.accepted
     assert result.evidence["robust_confidence"] >= 0.5 > result.evidence["close_confidence"]
     # Held against map 2's mirror image too: a whole floor's walls are far from achiral.
@@ -91,14 +97,7 @@ def test_a_placement_a_few_cells_off_is_the_same_one_bent(maps_folder, e5_truth,
     # Sessions bend by up to half a metre: the second best placement, 5-6 cells from
     # the best, explains the overlap about as well. The close fit counts it as
     # different, the robust evidence holds the best against one beyond the bending.
-    folder = maps_folder / "halmstad"
-    first, second = (merging.load_map(folder / f"{name}.yaml") for name in key.split("|"))
-    entry = e5_truth[key]
-    result = merging.estimate_transform(first, second)
-    tolerance = max(1.5 * entry["rms_cells"], entry["rms_cells"] + 10)
-    assert transform_error(result.matrix, np.array(entry["matrix_cells"]), second.data)[0] < (
-        tolerance
-    )
+    result = merged_sessions(maps_folder / "halmstad", e5_truth, key)
     evidence = result.evidence
     assert evidence["runner_up_distance_cells"] < 10 and evidence["margin"] < 0.3
     assert evidence["tolerant_runner_up_distance_cells"] > 10
