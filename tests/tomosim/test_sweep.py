@@ -365,3 +365,22 @@ def test_an_episode_whose_process_died_is_named_not_awaited() -> None:
         _check_alive(running)
     del running["b|1"]
     _check_alive(running)  # this process is alive
+
+
+def test_a_record_folder_that_cannot_be_written_is_named_up_front(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    # It ended in a raw "[Errno 13] Permission denied" (root ignores permissions, so
+    # the folder is made unwritable for the check itself).
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    real_access = os.access
+    monkeypatch.setattr(
+        os, "access", lambda path, mode: Path(path) != locked and real_access(path, mode)
+    )
+    argv = ["sweep", "--steps", "5", "--out", str(tmp_path / "s.csv")]
+    assert main([*argv, "--record-dir", str(locked / "recs")]) == 1
+    err = capsys.readouterr().err
+    assert f"folder {locked} is not writable" in err and "--record-dir" in err
+    assert main([*argv, "--record-dir", str(locked)]) == 1
+    assert not (tmp_path / "s.csv").exists()

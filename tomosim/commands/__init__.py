@@ -61,4 +61,7 @@ def check_writable(output: Path, *, option: str) -> None:
     if not folder.is_dir():
         raise CommandError(f"cannot write {output}: {folder} is not a directory")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise CommandError(f"cannot write {output}: folder {folder} is not writable")
+        raise CommandError(
+            f"cannot write {output}: folder {folder} is not writable; give {option} a path "
+            "in a folder you can write to"
+        )

@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     png = None
     if not args.no_png:
         png = args.png if args.png is not None else path.with_name(path.stem + PNG_SUFFIX)
-        check_writable(png, option="--png")
+        check_writable(png, option="--png" if args.png is not None else "--png (or --no-png)")
         from tomosim.commands.review_plot import plot_summary  # matplotlib only when plotting
 
         try:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -171,6 +172,13 @@ def run(args: argparse.Namespace) -> int:
             f"cannot write into {args.record_dir}: folder {args.record_dir.absolute().parent} "
             "does not exist; create it or give --record-dir another path"
         )
+    if args.record_dir is not None:  # it or, when it is still to be made, its parent
+        folder = args.record_dir if args.record_dir.is_dir() else args.record_dir.absolute().parent
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise CommandError(
+                f"cannot write into {args.record_dir}: folder {folder} is not writable; give "
+                "--record-dir a folder you can write to"
+            )
     progress = Progress(len(episodes), "episode", label=NAME)
     running: dict[str, tuple[int, float]] = {}
 
