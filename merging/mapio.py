@@ -181,9 +181,17 @@ def _map_meta(path: Path) -> dict[str, Any]:
 
 def _image_of(path: Path, meta: dict[str, Any]) -> Path:
     """The existing image file ``meta`` (read from ``path``) names."""
-    image_path = Path(str(meta["image"]))
+    named = meta["image"]
+    if not isinstance(named, str) or not named.strip():
+        raise ValueError(
+            f"{path}: image must name the map's picture file (a PGM or PNG beside it), "
+            f"got {named!r}"
+        )
+    image_path = Path(named)
     if not image_path.is_absolute():
         image_path = path.parent / image_path
+    if image_path.is_dir():
+        raise ValueError(f"image {image_path} named by {path} is a folder; name the picture file")
     if not image_path.is_file():
         raise FileNotFoundError(f"image {image_path} named by {path} not found")
     return image_path

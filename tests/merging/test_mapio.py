@@ -151,6 +151,9 @@ def test_missing_image_is_file_not_found(tmp_path: Path) -> None:
             "occupied_thresh: 0.1\nfree_thresh: 0.9\n",
             "free_thresh < occupied_thresh",
         ),
+        # An empty image was "image None ... not found", a folder "not found" though there.
+        ("image:\nresolution: 0.05\norigin: [0, 0, 0]\n", "image must name the map's picture"),
+        ("image: .\nresolution: 0.05\norigin: [0, 0, 0]\n", "is a folder"),
     ],
 )
 def test_bad_yaml_is_a_value_error_naming_it(tmp_path: Path, text: str, message: str) -> None:
