@@ -299,3 +299,14 @@ def test_placing_a_grid_refuses_a_matrix_that_scales_or_mirrors(matrix) -> None:
         place_grid(grid, matrix)
     moved = place_grid(grid, pose_matrix((1.0, 2.0, 0.5)))
     assert moved.origin == pytest.approx((1.0, 2.0, 0.5))
+
+
+def test_pairs_are_listed_by_their_robots_numbers() -> None:
+    # With ten robots or more, text order put r0-r10 before r0-r2.
+    from tomosim.commands.explore_report import summarise_pairs
+    from tomosim.team import pair_order
+
+    names = ["r0-r10", "r10-r11", "r0-r2", "r1-r2", "odd"]
+    assert sorted(names, key=pair_order) == ["r0-r2", "r0-r10", "r1-r2", "r10-r11", "odd"]
+    rows = [(name, True, True, 0.1, 0.01) for name in names[:4]]
+    assert [p.name for p in summarise_pairs(rows)] == ["r0-r2", "r0-r10", "r1-r2", "r10-r11"]

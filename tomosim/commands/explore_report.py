@@ -26,6 +26,7 @@ from tomosim.recording.paths import (
     path_length_path,
     robot_coverage_path,
 )
+from tomosim.team import pair_order
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,7 +55,7 @@ def summarise_pairs(
 ) -> list[PairSummary]:
     """Group ``(pair, accepted, confirmed, rotation_deg, translation_m)`` rows by pair."""
     out = []
-    for name in sorted({row[0] for row in rows}):
+    for name in sorted({row[0] for row in rows}, key=pair_order):
         mine = [row for row in rows if row[0] == name]
         out.append(
             PairSummary(

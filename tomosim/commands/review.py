@@ -32,6 +32,7 @@ from tomosim.commands.explore_report import (
 )
 from tomosim.recording import RecordedRun, read_recording
 from tomosim.recording.paths import AGREEMENT, STATUS_FINISHED, STATUS_RUNNING
+from tomosim.team import pair_order
 
 NAME = "review"
 """The subcommand's name."""
@@ -140,7 +141,9 @@ def render(report: dict[str, Any]) -> str:
     lines.append(header)
     rows = []
     for merge in report["merges"]:
-        for k, (name, p) in enumerate(sorted(merge["pairs"].items())):
+        for k, (name, p) in enumerate(
+            sorted(merge["pairs"].items(), key=lambda item: pair_order(item[0]))
+        ):
             rot = p.get("rotation_error_deg")
             shift = p.get("translation_error_m")
             agree = merge["agreement"] if k == 0 and merge["agreement"] is not None else None

@@ -49,6 +49,7 @@ from tomosim.recording.paths import (
     TRUTH,
     pair_path,
 )
+from tomosim.team.merger import pair_order
 
 READ_CONTENTS = (
     "+ /run/**",
@@ -143,7 +144,7 @@ class RecordedRun:
             parts = path.split("/")
             if len(parts) == 3 and parts[0] == MERGE and parts[1] in PAIR_QUANTITIES:
                 names.add(parts[2])
-        return sorted(names)
+        return sorted(names, key=pair_order)
 
     def pair(self, name: str, quantity: str) -> Series:
         """One quantity of one pair (empty when never logged)."""

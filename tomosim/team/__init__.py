@@ -18,6 +18,7 @@ from tomosim.team.merger import (
     TeamMerge,
     TeamMerger,
     pair_name,
+    pair_order,
     robot_name,
 )
 from tomosim.team.oracle import ORACLE, check_team_method, oracle_estimator, team_methods
@@ -52,6 +53,7 @@ __all__ = [
     "merged_agreement",
     "oracle_estimator",
     "pair_name",
+    "pair_order",
     "pair_quality",
     "reach_groups",
     "robot_name",

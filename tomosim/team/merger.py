@@ -22,6 +22,8 @@ start poses is :func:`tomosim.team.quality.score_round`'s job.
 
 from __future__ import annotations
 
+import math
+import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -64,6 +66,15 @@ def robot_name(index: int) -> str:
 def pair_name(first: int, second: int) -> str:
     """``"r0-r1"``: a pair's name in reports, infos and recordings."""
     return f"{robot_name(first)}-{robot_name(second)}"
+
+
+def pair_order(name: str) -> tuple[float, float, str]:
+    """Sort key of a pair's name by its robots' numbers: ``r0-r2`` before ``r0-r10``
+    (names of another form after them, as text)."""
+    numbers = re.fullmatch(r"r(\d+)-r(\d+)", name)
+    if numbers is None:
+        return (math.inf, math.inf, name)
+    return (float(numbers[1]), float(numbers[2]), "")
 
 
 @dataclass(frozen=True, slots=True)
