@@ -103,7 +103,7 @@ class FloorplanConfig:
                 raise ValueError(
                     f"{name} {getattr(self, name)} m makes a grid {cells:.0f} cells a side at "
                     f"{self.resolution} m a cell, more than {MAX_SIDE_CELLS}; use a smaller "
-                    "floor or a coarser resolution"
+                    "floor (or a coarser FloorplanConfig.resolution)"
                 )
         if self.width < MIN_EXTENT_ROOMS * self.room_width[0]:
             raise ValueError(
