@@ -16,13 +16,13 @@ of them to trust together:
    (:func:`scipy.sparse.csgraph.minimum_spanning_tree` on ``2 - confidence``),
    so that one weak wrong pair cannot override a chain of confident ones;
 4. in one breadth-first walk per linked group it composes each grid's
-   transform into its group's *root*, the group's lowest index; a group
-   holding pairs of bending maps and a cycle is then placed by all of its
-   pairs at once (:func:`merging.posegraph.adjust_poses`), since a chain of
-   bent links adds up their errors; transforms follow in metres too for
-   georeferenced grids;
+   transform into its group's *root*, the group's lowest index;
 5. it reports accepted pairs that the forest does not use and that disagree
-   with it (a contradiction around a longer cycle) as dropped too.
+   with it (a contradiction around a longer cycle) as dropped too; then a
+   group holding pairs of bending maps and a cycle is placed by all of its
+   pairs not dropped at once (:func:`merging.posegraph.adjust_poses`), since
+   a chain of bent links adds up their errors. Transforms follow in metres
+   too for georeferenced grids.
 
 :func:`merge_all` estimates every pair with :func:`~merging.api.estimate_transform`,
 links them and fuses the *main* group: grid 0's group, or the largest group
@@ -98,6 +98,9 @@ class Linking:
         root frame), when every grid is an :class:`OccupancyGrid`; else None.
     notes : tuple of str
         One line each: dropped pairs and why; grids linked to nothing and why.
+    used : tuple of (int, int)
+        The pairs that place the grids: the forest's, and in a group placed
+        by all of its pairs (module docstring, step 4) every pair not dropped.
     """
 
     pairs: dict[Pair, MergeResult]
@@ -108,6 +111,7 @@ class Linking:
     transforms: tuple[NDArray[np.float64], ...]
     transforms_metres: tuple[NDArray[np.float64], ...] | None
     notes: tuple[str, ...]
+    used: tuple[Pair, ...] = ()
 
     @property
     def count(self) -> int:
@@ -254,8 +258,10 @@ def link_maps(
     trusted, notes = consistent_pairs(usable, points)
     tree = _spanning_forest(count, trusted)
     roots, transforms = _compose(count, tree, trusted)
-    transforms = _adjust_bent_groups(roots, transforms, trusted, points)
     late, late_notes = _contradicting_tree(trusted, tree, roots, transforms, points)
+    kept = {key: r for key, r in trusted.items() if key not in late}
+    transforms, adjusted = _adjust_bent_groups(roots, transforms, kept, points)
+    used = tree + tuple(key for key in kept if key not in tree and roots[key[0]] in adjusted)
     dropped = tuple(sorted(set(usable) - set(trusted))) + late
     groups = tuple(
         sorted(
@@ -270,7 +276,9 @@ def link_maps(
             for k, t in enumerate(transforms)
         )
     notes += late_notes + _unlinked_notes(groups, given)
-    return Linking(dict(given), tree, dropped, groups, roots, transforms, metres, tuple(notes))
+    return Linking(
+        dict(given), tree, dropped, groups, roots, transforms, metres, tuple(notes), used
+    )
 
 
 def merge_all(
@@ -463,18 +471,24 @@ def _adjust_bent_groups(
     transforms: tuple[NDArray[np.float64], ...],
     pairs: Mapping[Pair, MergeResult],
     points: Sequence[NDArray[np.float64]],
-) -> tuple[NDArray[np.float64], ...]:
+) -> tuple[tuple[NDArray[np.float64], ...], set[int]]:
     """Step 4's second half: each group with a bending pair and a cycle, placed by all
-    of its pairs (:func:`merging.posegraph.adjust_poses`); the others as the tree has them."""
-    adjusted = list(transforms)
+    of ``pairs`` in it (:func:`merging.posegraph.adjust_poses`; pairs that contradict
+    the tree are left out beforehand); the others as the tree has them.
+
+    Returns the transforms and the roots of the groups so placed.
+    """
+    placed = list(transforms)
+    adjusted: set[int] = set()
     for root in sorted(set(roots)):
         members = [k for k, r in enumerate(roots) if r == root]
         inside = {key: r for key, r in pairs.items() if roots[key[0]] == root}
         if len(inside) < len(members) or not any(bends(r) for r in inside.values()):
             continue  # a tree (no cycle to spread bending over) or maps that fit closely
         matrices = {key: r.matrix for key, r in inside.items()}
-        adjusted = adjust_poses(adjusted, root, members, matrices, points)
-    return tuple(adjusted)
+        placed = adjust_poses(placed, root, members, matrices, points)
+        adjusted.add(root)
+    return tuple(placed), adjusted
 
 
 def _spanning_forest(count: int, pairs: Mapping[Pair, MergeResult]) -> tuple[Pair, ...]:

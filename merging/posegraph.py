@@ -34,6 +34,8 @@ POINTS_PER_PAIR = 200
 """Wall cells of grid ``j`` sampled per pair (evenly along its list)."""
 MAX_ITERATIONS = 30
 """Gauss-Newton steps at most."""
+MAX_HALVINGS = 10
+"""Times a step that does not lower the misfit is halved before the solve stops."""
 CONVERGED = 1e-6
 """A step moving no pose by more than this (cells or radians) ends the solve."""
 
@@ -79,7 +81,10 @@ def adjust_poses(
         chosen = own[:: max(1, len(own) // POINTS_PER_PAIR)]
         samples.append((i, j, chosen, apply_transform(matrix, chosen)))
     size = 3 * len(moving)
+    cost = _misfit(poses, samples)
     for _ in range(MAX_ITERATIONS):
+        if size == 0:
+            break
         normal = np.zeros((size, size))
         gradient = np.zeros(size)
         for i, j, own, carried in samples:
@@ -98,14 +103,36 @@ def adjust_poses(
                         block = np.einsum("nij,nik->jk", jac_a, jac_b)
                         normal[rows, cols] += weight * sign_a * sign_b * block
         step = np.linalg.lstsq(normal, -gradient, rcond=None)[0]
-        for k, n in slot.items():
-            poses[k] = poses[k] + step[3 * n : 3 * n + 3]
-        if size == 0 or np.abs(step).max() < CONVERGED:
+        # Gauss-Newton's step, halved while it does not lower the misfit (the turn
+        # makes the problem nonlinear): the result never fits worse than the start.
+        for _ in range(MAX_HALVINGS):
+            trial = {k: poses[k] + step[3 * n : 3 * n + 3] for k, n in slot.items()}
+            trial[root] = poses[root]
+            trial_cost = _misfit(trial, samples)
+            if trial_cost <= cost:
+                break
+            step = step / 2.0
+        else:
+            break
+        poses, cost = trial, trial_cost
+        if np.abs(step).max() < CONVERGED:
             break
     adjusted = [np.asarray(t, dtype=np.float64) for t in transforms]
     for k in moving:
         adjusted[k] = rigid_matrix(*poses[k])
     return adjusted
+
+
+def _misfit(
+    poses: dict[int, NDArray[np.float64]],
+    samples: list[tuple[int, int, NDArray[np.float64], NDArray[np.float64]]],
+) -> float:
+    """``E`` of the module docstring for ``poses``."""
+    total = 0.0
+    for i, j, own, carried in samples:
+        residual = _placed(poses[j], own)[0] - _placed(poses[i], carried)[0]
+        total += float(np.sum(residual**2)) / len(own)
+    return total
 
 
 def _placed(

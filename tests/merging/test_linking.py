@@ -275,3 +275,19 @@ def test_sessions_of_one_floor_link_as_their_pairs_are_right(maps_folder) -> Non
         assert error <= max(1.5 * entry["rms_cells"], entry["rms_cells"] + 10), key
         judged += 1
     assert judged == 20
+
+
+def test_a_wrong_pair_of_bending_maps_is_dropped_before_it_can_pull_the_group() -> None:
+    """A wrong pair in no triangle (the closing edge of a 4-cycle) must not place grids.
+
+    Checked against the tree first, it is dropped; placed by all pairs first, it
+    pulled every grid tens of cells off and then agreed with what it had pulled.
+    """
+    grids = robot_grids()
+    table = {(0, 1): (truth(0, 1), 0.99, True), (1, 2): (truth(1, 2), 0.98, True)}
+    table[(2, 3)] = (truth(2, 3), 0.97, True)
+    table[(0, 3)] = (truth(0, 3) @ translation(300.0, 0.0), 0.5, True)
+    linking = link_maps(grids, {key: bent(r) for key, r in table_pairs(table).items()})
+    assert linking.dropped == ((0, 3),) and linking.used == linking.tree
+    for k in range(4):
+        np.testing.assert_allclose(linking.transforms[k], truth(0, k), atol=1e-6)

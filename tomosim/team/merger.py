@@ -285,7 +285,7 @@ class TeamMerger:
                 j,
                 raw[(i, j)],
                 confirmed=confirmed[(i, j)].accepted,
-                used=(i, j) in linking.tree,
+                used=(i, j) in linking.used,
                 dropped=(i, j) in linking.dropped,
             )
             for i, j in sorted(raw)
