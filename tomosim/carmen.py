@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import gzip
 import math
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -147,15 +148,20 @@ def read_carmen(path: str | Path) -> CarmenLog:
                         f"{source}:{number}: {len(ranges[-1])} beams, but the first "
                         f"scan has {len(ranges[0])}"
                     )
-    except (EOFError, gzip.BadGzipFile) as exc:
+    except EOFError as exc:
         raise ValueError(
             f"{source} is cut short: its compressed data ends after line {number} "
             f"({len(ranges)} scans read); `gzip -dc` recovers what is there ({exc})"
         ) from exc
+    except (gzip.BadGzipFile, zlib.error) as exc:
+        raise ValueError(
+            f"{source} is corrupt: its compressed data cannot be read after line {number} "
+            f"({len(ranges)} scans read; {exc})"
+        ) from exc
     except UnicodeDecodeError as exc:
         raise ValueError(
-            f"{source} is not a text CARMEN log (nor gzip-compressed one): byte "
-            f"{exc.start} of line {number + 1} is not text"
+            f"{source} is not a text CARMEN log (nor a gzip-compressed one): it holds "
+            f"bytes that are not text after line {number}"
         ) from exc
     if not ranges:
         raise ValueError(f"{source} holds no FLASER message")

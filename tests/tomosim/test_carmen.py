@@ -156,3 +156,13 @@ def test_mapping_the_aces_log_reproduces_aces3() -> None:
     # And the found shift is a whole number of cells between the two origins.
     offset = (np.asarray(ours.origin[:2]) - np.asarray(reference.origin[:2])) / 0.05
     assert np.allclose(offset, np.rint(offset))
+
+
+def test_reader_names_a_corrupt_compressed_log(tmp_path: Path) -> None:
+    # A flipped bit in the compressed data escaped as a raw zlib.error.
+    data = bytearray(gzip.compress((LINE * 2000).encode()))
+    data[20] ^= 0x55  # the first bytes of the deflate stream
+    corrupt = tmp_path / "corrupt.log.gz"
+    corrupt.write_bytes(bytes(data))
+    with pytest.raises(ValueError, match=r"corrupt\.log\.gz is corrupt"):
+        read_carmen(corrupt)
