@@ -181,6 +181,7 @@ class Recorder:
     """
 
     __slots__ = (
+        "_attached",
         "_closed",
         "_flushed_at",
         "_last_maps",
@@ -217,6 +218,7 @@ class Recorder:
         self._logged_at: dict[int, int] = {}
         self._trails: dict[int, list[tuple[float, float]]] = {}
         self._closed = False
+        self._attached = False
         self._status: str | None = None
         self._styled: set[str] = set()
         self._sinks: Sinks | None = None
@@ -338,6 +340,7 @@ class Recorder:
         RecordingError
             If the file cannot be created or a viewer's port is taken.
         """
+        self._attached = True  # from here on the file is created (or emptied)
         if self._sinks is not None:
             self._sinks.attach()
         world = session.world
@@ -515,8 +518,8 @@ class Recorder:
 
     @property
     def started(self) -> bool:
-        """Whether :meth:`log_start` has logged the run (before it, nothing is written)."""
-        return self._status is not None
+        """Whether :meth:`log_start` has begun (before it, no file is created or emptied)."""
+        return self._attached
 
     @property
     def last_step(self) -> int:
