@@ -384,3 +384,21 @@ def test_a_record_folder_that_cannot_be_written_is_named_up_front(
     assert f"folder {locked} is not writable" in err and "--record-dir" in err
     assert main([*argv, "--record-dir", str(locked)]) == 1
     assert not (tmp_path / "s.csv").exists()
+
+
+def test_a_resume_finds_rows_keyed_by_a_path_as_typed_before(tmp_path: Path, monkeypatch) -> None:
+    # Rows written before maps were named by absolute path hold the path as typed:
+    # resumed from the same folder, they count as done (not run again and stored twice).
+    from tomosim.sweep.executors import _named_as_now
+    from tomosim.sweep.plan import recording_name
+
+    monkeypatch.chdir(tmp_path)
+    assert _named_as_now("odd/a.yaml|2|utility|none|0") == (
+        f"{tmp_path / 'odd' / 'a.yaml'}|2|utility|none|0"
+    )
+    assert _named_as_now("07|2|utility|none|0") == "7|2|utility|none|0"
+    # Recordings are named by the map's stem and a hash of its path: short, and apart.
+    deep = "/".join(["folder"] * 60) + "/a.yaml"
+    name = recording_name(f"{deep}|2|utility|none|0")
+    assert name.startswith("a-") and len(name) < 60
+    assert name != recording_name("/elsewhere/a.yaml|2|utility|none|0")

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from tomosim.episode import EpisodeConfig
-from tomosim.sweep.plan import Episode, SweepPlan
+from tomosim.sweep.plan import Episode, SweepPlan, world_name
 from tomosim.sweep.rows import ResultsFile, run_one
 
 EXECUTORS = ("process", "ray")
@@ -178,8 +178,18 @@ def _done_keys(results: ResultsFile, shared: dict[str, Any]) -> set[str]:
                     f"{results.path} was written by a sweep with {name}={row[name]}, "
                     f"not {value}; choose another --out"
                 )
-        done.add(row["key"])
+        done.add(_named_as_now(row["key"]))
     return done
+
+
+def _named_as_now(key: str) -> str:
+    """``key`` with its world named as :func:`~tomosim.sweep.plan.world_name` names it.
+
+    Files written before worlds were named by absolute path hold the path as it
+    was typed; read from the folder the sweep runs in, as a resume then did.
+    """
+    world, sep, rest = key.partition("|")
+    return world_name(world) + sep + rest
 
 
 class _Reporter:

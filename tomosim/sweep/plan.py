@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import re
@@ -162,7 +163,7 @@ class SweepPlan:
             seed=seed,
         )
         if self.record_dir is not None:
-            config = replace(config, record=self.record_dir / f"{_file_safe(key)}.rrd")
+            config = replace(config, record=self.record_dir / recording_name(key))
         return Episode(key, config)
 
 
@@ -182,6 +183,17 @@ def world_name(world: object) -> str:
 def episode_key(world: str, robots: int, policy: str, method: str, seed: int) -> str:
     """``world|robots|policy|method|seed``: names an episode within a sweep."""
     return f"{world}|{robots}|{policy}|{method}|{seed}"
+
+
+def recording_name(key: str) -> str:
+    """The file name of an episode's recording: its key made file-safe, a map named by
+    its file's stem and a short hash of its path (a whole path could pass the 255-byte
+    limit on file names, and two maps of one name in two folders must not share one)."""
+    world, sep, rest = key.partition("|")
+    if not world.isdigit():
+        digest = hashlib.sha1(world.encode()).hexdigest()[:8]
+        world = f"{Path(world).stem}-{digest}"
+    return f"{_file_safe(world + sep + rest)}.rrd"
 
 
 def _file_safe(key: str) -> str:
