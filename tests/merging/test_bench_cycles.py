@@ -43,3 +43,18 @@ def test_unknown_methods_are_named(capsys, tmp_path) -> None:
     else:
         assert status == 2 and "nonesuch" in error
     assert not (tmp_path / "pairs.csv").exists()
+
+
+def test_sessions_linked_at_once_are_judged_against_the_floor_s_truth(
+    maps_folder, tmp_path, capsys
+) -> None:
+    bench = load_script("bench_linking")
+    sessions = ["E5_01", "E5_02", "E5_03"]
+    assert bench.main(["--sessions", *sessions, "--out", str(tmp_path)]) == 0
+    report = (tmp_path / "linking.md").read_text()
+    rows = (tmp_path / "linking.csv").read_text().splitlines()
+    assert "| implied by the linking (sessions linked) |" in report
+    known = [line for line in rows[1:] if line.split(",")[0].count("E5_") == 2]
+    assert len(known) == len(rows) - 1 >= 3
+    assert bench.main(["--sessions", "E5_01", "E5_99", "--out", str(tmp_path)]) == 2
+    assert "E5_99" in capsys.readouterr().err
