@@ -40,8 +40,7 @@ from numpy.typing import NDArray
 
 import merging
 from merging.metrics import transform_error
-from tomosim.commands.script_args import positive_float, run_script
-from tomosim.data import maps_dir, maps_missing
+from tomosim.commands.script_args import positive_float, run_script, shared_maps
 
 FLOORS = ("F5", "HIH", "KPT4A")
 """The Halmstad floors without a known transform between their sessions."""
@@ -167,10 +166,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="draw the accepted pairs of the cycles named")  # fmt: skip
     parser.add_argument("--out", type=Path, default=Path("results/bench_cycles"))
     args = parser.parse_args(argv)
-    folder = maps_dir()
-    if folder is None:
-        print(f"error: {maps_missing()}", file=sys.stderr)
-        return 1
+    folder = shared_maps()
     unknown = sorted(set(args.methods) - set(merging.available_methods()))
     if unknown:
         print(f"error: unknown method(s) {unknown}; choose from {merging.available_methods()}",

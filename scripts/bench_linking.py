@@ -28,8 +28,7 @@ import numpy as np
 
 import merging
 from merging.metrics import transform_error
-from tomosim.commands.script_args import run_script
-from tomosim.data import maps_dir, maps_missing
+from tomosim.commands.script_args import run_script, shared_maps
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,10 +37,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="E5 sessions to merge (default: all of them)")  # fmt: skip
     parser.add_argument("--out", type=Path, default=Path("results/bench_linking"))
     args = parser.parse_args(argv)
-    folder = maps_dir()
-    if folder is None:
-        print(f"error: {maps_missing()}", file=sys.stderr)
-        return 1
+    folder = shared_maps()
     halmstad = folder / "halmstad"
     names = args.sessions or sorted(p.stem for p in halmstad.glob("E5_*.yaml"))
     missing = [name for name in names if not (halmstad / f"{name}.yaml").is_file()]

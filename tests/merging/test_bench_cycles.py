@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from merging.transforms import rigid_matrix
 
@@ -34,15 +35,19 @@ def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> Non
     assert "| F | m | 3 | 3 | 1 |" in lines[2] and "a -> b -> c" in lines[-1]
 
 
-def test_unknown_methods_are_named(capsys, tmp_path) -> None:
+def test_unknown_methods_are_named(capsys, tmp_path, maps_folder) -> None:
     bench = load_script("bench_cycles")
     status = bench.main(["--methods", "nonesuch", "--floors", "HIH", "--out", str(tmp_path)])
-    error = capsys.readouterr().err
-    if bench.maps_dir() is None:
-        assert status == 1 and "maps" in error
-    else:
-        assert status == 2 and "nonesuch" in error
+    assert status == 2 and "nonesuch" in capsys.readouterr().err
     assert not (tmp_path / "pairs.csv").exists()
+
+
+def test_without_the_shared_maps_the_scripts_say_where_they_looked(monkeypatch) -> None:
+    from tomosim.commands import CommandError, script_args
+
+    monkeypatch.setattr("tomosim.data.maps_dir", lambda: None)
+    with pytest.raises(CommandError, match="maps"):
+        script_args.shared_maps()
 
 
 def test_sessions_linked_at_once_are_judged_against_the_floor_s_truth(

@@ -75,3 +75,14 @@ def run_script(main: Callable[[], int | None], script: str) -> NoReturn:
         print(f"{name}: error: {one_line(error)}", file=sys.stderr)
         sys.exit(1)
     sys.exit(status or 0)
+
+
+def shared_maps() -> Path:
+    """The folder of shared real maps; :class:`CommandError` naming where it was looked
+    for when it is absent (:func:`tomosim.data.maps_missing`)."""
+    from tomosim.data import maps_dir, maps_missing
+
+    folder = maps_dir()
+    if folder is None:
+        raise CommandError(maps_missing())
+    return folder
