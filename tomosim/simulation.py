@@ -68,12 +68,15 @@ def _check_room(world: World, poses: NDArray[np.float64], radius: float) -> None
     """Raise ValueError unless every robot's disc (``radius``) lies in free space, apart
     from the others: a disc across a wall or another robot puts the lidar inside an
     obstacle, where it reads zero and negative ranges that the map takes for walls."""
-    room = world.clearance_at(poses[:, :2])
+    # Clearance runs from the centre of the cell under the pose to the nearest wall
+    # cell's centre: the wall's face and the pose may each lie half a cell nearer.
+    room = world.clearance_at(poses[:, :2]) - world.resolution
     for k in np.flatnonzero(room < radius):
         x, y = poses[k, :2]
         raise ValueError(
-            f"poses[{k}] at ({x:g}, {y:g}) m has {room[k]:.2f} m of free space around it; "
-            f"a robot needs its radius, {radius:g} m (off the map or in a wall has none)"
+            f"poses[{k}] at ({x:g}, {y:g}) m has {max(room[k], 0.0):.2f} m of free space "
+            f"around it; a robot needs its radius, {radius:g} m (off the map or in a wall "
+            "has none)"
         )
     offsets = poses[:, None, :2] - poses[None, :, :2]
     gaps = np.hypot(offsets[..., 0], offsets[..., 1])

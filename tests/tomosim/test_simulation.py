@@ -8,6 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
+from merging.grid import OccupancyGrid
 from merging.metrics import acceptance_index, matching_index
 from tomosim.evaluation import coverage, known_in_world
 from tomosim.frames import place_grid, pose_matrix
@@ -197,3 +198,18 @@ def test_known_cells_cover_what_the_robot_saw(world: World) -> None:
     cell = np.rint(world.truth.world_to_cell([[x, y]])[0]).astype(int)
     assert known[cell[1], cell[0]]
     assert not known[0, 0]  # the grid's corner lies outside the building
+
+
+def test_a_given_pose_whose_disc_reaches_into_a_wall_cell_is_refused() -> None:
+    # Clearance runs between cell centres: a robot 0.21 m from a wall cell's centre,
+    # 0.185 m from its face, read 0.2 m of room and was taken with its 0.2 m radius.
+    from tomosim.worlds import world_from_grid
+
+    cells = np.full((80, 80), 100, dtype=np.int8)
+    cells[1:-1, 1:-1] = 0  # one room, 3.9 m across, walled by the border cells
+    world = world_from_grid(OccupancyGrid(cells, resolution=0.05), name="room")
+    wall = world.truth.cell_to_world_matrix() @ np.array([0.0, 40.0, 1.0])
+    radius = SimulationConfig().physics.robot_radius
+    with pytest.raises(ValueError, match="free space"):
+        Simulation(world, poses=[[wall[0] + radius + 0.01, wall[1], 0.0]])
+    Simulation(world, poses=[[wall[0] + radius + 0.1, wall[1], 0.0]])
