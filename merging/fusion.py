@@ -21,7 +21,8 @@ the same map in any order, which makes the result of :func:`merge_all`
 independent of the order :func:`merging.linking.merge_all` walks its tree in.
 
 The fused grid's cells are the reference grid's (map 1's) cells shifted by a
-whole number of cells, so that the canvas grows in every direction as needed:
+whole number of cells, so that the canvas holds every input's observed cells
+and nothing more (the inputs' unknown borders are left out):
 ``offset`` takes the reference's cells to the fused grid's cells, and the
 fused :class:`~merging.grid.OccupancyGrid`'s origin is moved so that each of
 the reference's cells keeps its place in metres.
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from merging.grid import UNKNOWN, OccupancyGrid, validate_cells
+from merging.grid import UNKNOWN, OccupancyGrid, observed_part, validate_cells
 from merging.resample import to_resolution
 from merging.transforms import apply_transform
 from merging.warp import warp_cells
@@ -154,20 +155,28 @@ def fuse(
     if not moves:
         raise ValueError("no map to fuse: every matrix is None")
     used = sorted(moves)
+    given = dict(moves)  # each map's own cells -> the frame's, for to_fused
     cells = {k: validate_cells(maps[k], name=f"maps[{k}]") for k in used}
     if frame is not None:
         for k in used:
             item = maps[k]
             if isinstance(item, OccupancyGrid):
                 cells[k], moves[k] = _at_frame_resolution(item, moves[k], frame, name=f"maps[{k}]")
+    if any(np.any(cells[k] >= 0) for k in used):
+        # Only what was observed is laid in: unknown borders of the inputs' canvases
+        # would only widen the fused grid.
+        for k in used:
+            cells[k], corner = observed_part(cells[k])
+            moves[k] = moves[k] @ _translation(float(corner[0]), float(corner[1]))
     boxes = {k: _cell_box(cells[k].shape, moves[k]) for k in used}
     low = np.min([b[0] for b in boxes.values()], axis=0)
     high = np.max([b[1] for b in boxes.values()], axis=0)
     cols, rows = (high - low + 1).tolist()
     if rows * cols > MAX_FUSED_CELLS:
         raise ValueError(
-            f"the fused grid would be {rows} x {cols} cells (limit {MAX_FUSED_CELLS}); "
-            "check the transforms, their translations look too large"
+            f"the fused grid would be {rows} x {cols} cells (limit {MAX_FUSED_CELLS}) to hold "
+            "every map's observed cells; check the transforms, their translations look too "
+            "large (or fuse fewer or smaller maps)"
         )
     offset = _translation(-float(low[0]), -float(low[1]))
     canvas = np.full((rows, cols), UNKNOWN, dtype=np.int8)
@@ -177,7 +186,7 @@ def fuse(
         warped = warp_cells(cells[k], into_box, (y1 - y0 + 1, x1 - x0 + 1))
         window = canvas[y0 : y1 + 1, x0 : x1 + 1]
         window[...] = combine(window, warped)
-    to_fused = tuple(offset @ moves[k] if k in moves else None for k in range(len(maps)))
+    to_fused = tuple(offset @ given[k] if k in given else None for k in range(len(maps)))
     fused_grid = None
     if frame is not None:
         ox, oy, yaw = frame.origin
@@ -241,8 +250,9 @@ def merge(
     -------
     FusedMap
         ``offset`` takes map 1's cells to the fused cells and
-        ``to_fused == (offset, offset @ matrix)``. The canvas grows in any
-        direction map 2 sticks out; conflicting cells combine by
+        ``to_fused == (offset, offset @ matrix)``. The canvas is the box of
+        both maps' observed cells (their unknown borders are left out), so
+        it grows in any direction map 2 sticks out; conflicting cells combine by
         :func:`combine` (known beats unknown, occupied beats free). When
         ``map1`` is an OccupancyGrid, ``grid`` keeps its resolution and its
         cells' places in metres.

@@ -11,6 +11,7 @@ from hypothesis.extra.numpy import arrays
 import merging
 from merging.grid import OccupancyGrid
 from merging.resample import to_resolution
+from merging.transforms import apply_transform
 
 from .conftest import UNMERGEABLE_CASES, unmergeable_pair
 
@@ -67,6 +68,29 @@ def test_maps_of_different_resolutions_are_merged(building) -> None:
     fused = merging.merge(fine, second, result.matrix)
     assert fused.grid is not None and fused.grid.resolution == 0.05
     assert not np.allclose(to_coarse, np.eye(3))
+    assert _walls_on_walls(fused, 1, second.data) > 0.9
+
+
+def _walls_on_walls(fused: merging.FusedMap, index: int, cells: np.ndarray) -> float:
+    """Share of ``cells``' walls that ``fused.to_fused[index]`` lays on a fused wall."""
+    matrix = fused.to_fused[index]
+    assert matrix is not None
+    rows, cols = np.nonzero(cells == 100)
+    placed = np.rint(apply_transform(matrix, np.column_stack([cols, rows]).astype(float)))
+    x, y = placed.astype(int).T
+    inside = (x >= 0) & (y >= 0) & (x < fused.cells.shape[1]) & (y < fused.cells.shape[0])
+    return float(np.mean(inside & (fused.cells[y.clip(0), x.clip(0)] == 100)))
+
+
+def test_a_finer_map_2_is_placed_by_its_own_cells(building) -> None:
+    # to_fused takes each input's own cells, not those of the coarsened copy fused.
+    fine = OccupancyGrid(building, resolution=0.05)
+    coarse, _ = to_resolution(fine, 0.1)
+    result = merging.estimate_transform(coarse, fine)
+    assert result.accepted
+    fused = merging.merge(coarse, fine, result.matrix)
+    np.testing.assert_allclose(fused.to_fused[1], fused.offset @ result.matrix)
+    assert _walls_on_walls(fused, 1, building) > 0.9
 
 
 def test_fusing_needs_a_matrix_that_scales_by_the_resolutions() -> None:

@@ -167,3 +167,24 @@ def test_fuse_needs_one_matrix_per_map() -> None:
         fuse([cells, cells], [np.eye(3)])
     with pytest.raises(ValueError, match="every matrix is None"):
         fuse([cells], [None])
+
+
+def test_unknown_borders_are_left_out_of_the_canvas() -> None:
+    # Maps drawn on large canvases of unknown cells fuse into the box of what was seen.
+    room1, room2 = random_room_map((12, 15), seed=11), random_room_map((10, 8), seed=12)
+    map1 = np.full((300, 400), -1, dtype=np.int8)
+    map1[100:112, 200:215] = room1
+    map2 = np.full((500, 60), -1, dtype=np.int8)
+    map2[250:260, 40:48] = room2
+    matrix = translation(170, -150)  # map 2's room lands at (210, 100) of map 1
+    fused = merge(map1, map2, matrix)
+    expected = merge(room1, room2, translation(10, 0))
+    np.testing.assert_array_equal(fused.cells, expected.cells)
+    np.testing.assert_allclose(fused.offset, translation(-200, -100), atol=EXACT)
+    np.testing.assert_allclose(fused.to_fused[1], fused.offset @ matrix, atol=EXACT)
+
+
+def test_maps_with_nothing_observed_keep_their_canvas() -> None:
+    blank = np.full((4, 6), -1, dtype=np.int8)
+    fused = merge(blank, blank.copy(), translation(2, 0))
+    assert fused.cells.shape == (4, 8)
