@@ -111,8 +111,11 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("the fused map lost its georeference")
     left_out = ", ".join(str(paths[k]) for k in result.unlinked)
     unlinked = f"could not link {left_out} to the other maps"
+    partial = "pass --partial to write the merge of the rest"
     if len(result.unlinked) == len(paths) - 1:  # no pair linked: no one map is to blame
         unlinked = f"could not link any two of the {len(paths)} maps"
+        kept = next(k for k in range(len(paths)) if k not in result.unlinked)
+        partial = f"pass --partial to write map {kept} ({paths[kept]}) alone"
     written = not result.unlinked or args.partial
     if written:
         try:
@@ -125,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     if not written:
         raise CommandError(
             f"{unlinked} (no confident merge; see the pairs above); {output} was not "
-            "written; pass --partial to write the merge of the rest"
+            f"written; {partial}"
         )
     if result.unlinked:
         print(f"tomosim: warning: not merged (no confident link): {left_out}", file=sys.stderr)
