@@ -6,7 +6,9 @@ functions flip rows. Pixel values are interpreted as ``map_server`` does:
 ``occ = (255 - p) / 255`` (or ``p / 255`` with ``negate: 1``), then
 
 * ``trinary``: ``occ > occupied_thresh`` -> 100, ``occ < free_thresh`` -> 0, else -1;
-* ``scale``: as trinary at the extremes, linear in between;
+* ``scale``: unknown where the pixel is not opaque (an image with an alpha
+  channel), else as trinary at the extremes, linear in between (as ROS 2's
+  ``map_server`` reads it; ROS 1's applies the thresholds before the alpha);
 * ``raw``: the pixel value itself (values above 100 become unknown).
 """
 
@@ -139,6 +141,7 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     try:
         with Image.open(image_path) as image:
             pixels = grey_levels(image)
+            see_through = transparent(image) if mode == "scale" else None
     except UnidentifiedImageError as exc:
         raise ValueError(
             f"image {image_path} named by {path} is not an image Pillow can read; give a PGM or PNG"
@@ -149,6 +152,7 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
         negate=bool(negate),
         occupied_thresh=occupied_thresh,
         free_thresh=free_thresh,
+        transparent=see_through,
     )
     origin = (origin_values[0], origin_values[1], origin_values[2])
     return OccupancyGrid(data[::-1].copy(), resolution=resolution, origin=origin)
@@ -213,6 +217,15 @@ def grey_levels(image: Image.Image) -> NDArray[np.float64]:
     return np.asarray(image.convert("L"), dtype=np.float64)
 
 
+def transparent(image: Image.Image) -> NDArray[np.bool_] | None:
+    """Where the image is not opaque; None for an image without an alpha channel."""
+    if image.mode == "P" and "transparency" in image.info:
+        image = image.convert("RGBA")
+    if "A" not in image.getbands():
+        return None
+    return np.asarray(image.getchannel("A")) < 255
+
+
 def pixels_to_cells(
     pixels: NDArray[np.float64],
     *,
@@ -220,8 +233,12 @@ def pixels_to_cells(
     negate: bool = False,
     occupied_thresh: float = 0.65,
     free_thresh: float = 0.196,
+    transparent: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.int8]:
-    """Convert grey levels (0..255, rows as in the image) to the ROS cell coding."""
+    """Convert grey levels (0..255, rows as in the image) to the ROS cell coding.
+
+    ``transparent`` marks pixels that are not opaque: unknown in ``scale`` mode.
+    """
     if mode == "raw":
         raw = np.where(pixels > OCCUPIED, UNKNOWN, pixels)
         return raw.astype(np.int8)
@@ -233,6 +250,8 @@ def pixels_to_cells(
         between = (occ >= free_thresh) & (occ <= occupied_thresh)
         ratio = (occ[between] - free_thresh) / (occupied_thresh - free_thresh)
         data[between] = np.rint(99 * ratio).astype(np.int8)
+        if transparent is not None:
+            data[transparent] = UNKNOWN
     return data
 
 

@@ -114,6 +114,18 @@ def test_scale_mode_is_linear_between_the_thresholds(tmp_path: Path) -> None:
     np.testing.assert_array_equal(grid.data[0], [100, 66, 4, 0])
 
 
+@pytest.mark.parametrize("mode", ["scale", "trinary"])
+def test_scale_mode_reads_see_through_pixels_as_unknown(tmp_path: Path, mode: str) -> None:
+    # Grey with alpha: black, mid grey and white, the last two columns see-through.
+    grey = np.array([[0, 128, 0, 255]], dtype=np.uint8)
+    alpha = np.array([[255, 255, 0, 128]], dtype=np.uint8)
+    Image.fromarray(np.dstack([grey, alpha]), mode="LA").save(tmp_path / "map.png")
+    fields = {"image": "map.png", "resolution": 0.05, "origin": [0.0, 0.0, 0.0], "mode": mode}
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(fields))
+    expected = [100, 66, -1, -1] if mode == "scale" else [100, -1, 100, 0]
+    np.testing.assert_array_equal(load_map(tmp_path / "map.yaml").data[0], expected)
+
+
 def test_real_map_has_its_documented_shape_and_origin(maps_dir: Path) -> None:
     grid = load_map(maps_dir / "brsu_c069.yaml")
     assert grid.shape == (544, 576)
