@@ -294,8 +294,11 @@ def refusal_reason(
     The first failing factor of the close fit, in :data:`REASON_ORDER`,
     names the cause. When that is the fit itself (the walls do not meet
     within a cell or so) and the robust way was tried too, its failing
-    factors refine it: a competing placement means ambiguity, a weak
-    constraint a single wall or corridor.
+    factors refine it. Too few walls meeting within its tolerance comes
+    first (a rival placement is no news for a placement that explains
+    little: two maps of different buildings have many such); then a rival
+    placement about as good means ambiguity, a weak constraint a single
+    wall or corridor.
     """
     values = dict(zip(CLOSE_FACTORS, close, strict=True))
     failing = [name for name in REASON_ORDER if values[name] < 0.5]
@@ -304,13 +307,18 @@ def refusal_reason(
     competitor = ""  # the close fit's runner-up; "tolerant_" for the robust way's
     if cause == "fit" and robust:
         weak = {name for name, value in robust.items() if value < 0.5}
-        cause = "distinct" if "margin" in weak else "constraint" if "strength" in weak else "fit"
         small = bool(weak & {"agreeing", "open_share"})
+        if small:
+            cause = "support" if values["support"] < 0.5 else "fit"
+        elif "margin" in weak:
+            cause = "distinct"
+        else:
+            cause = "constraint" if "strength" in weak else "fit"
         competitor = "tolerant_"
     if cause == "distinct":
         distance = evidence.get(f"{competitor}runner_up_distance_cells", 0.0)
-        turn = evidence.get(f"{competitor}runner_up_turn_deg", 0.0)
-        turned = f", turned {turn:.0f} degrees from it" if turn >= 1.0 else ""
+        turn = round(evidence.get(f"{competitor}runner_up_turn_deg", 0.0))
+        turned = f", turned {turn} degree{'' if turn == 1 else 's'} from it" if turn >= 1 else ""
         return (
             "ambiguous: another placement about as good lies "
             f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
@@ -318,8 +326,8 @@ def refusal_reason(
         )
     if cause == "fit" and small:
         return (
-            "the walls do not line up closely, and the overlap is too small to vouch for "
-            "maps that bend against each other"
+            "the walls do not line up: too few of them meet, even allowing a few cells for "
+            "maps drawn in separate sessions"
         )
     return {
         "fit": "the walls do not line up: too many of them land on the other map's open "
