@@ -10,6 +10,7 @@ is handled as Ctrl-C is: a run stops cleanly and keeps what it wrote.
 
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 import sys
@@ -18,19 +19,13 @@ from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 
 from tomosim.commands import CommandError, Parser, UsageError, one_line
-from tomosim.commands import explore as explore_command
-from tomosim.commands import merge as merge_command
-from tomosim.commands import review as review_command
-from tomosim.commands import sweep as sweep_command
 from tomosim.commands.stopping import Stopped, stop_signals_handled
 
-COMMANDS: tuple[ModuleType, ...] = (
-    explore_command,
-    review_command,
-    merge_command,
-    sweep_command,
-)
-"""Command modules, in the order ``tomosim --help`` lists them."""
+COMMANDS = ("explore", "review", "merge", "sweep")
+"""Command modules under :mod:`tomosim.commands`, in the order ``tomosim --help`` lists
+them. They import the simulator, the merger and the viewer's SDK, seconds of work, so
+they are imported inside :func:`main`, where a Ctrl-C meanwhile stops as at any other
+instant."""
 PROG = "tomosim"
 """The program name in messages."""
 EXIT_FAILURE, EXIT_USAGE = 1, 2
@@ -56,7 +51,8 @@ def build_parser() -> Parser:
     parser.add_argument("--version", action="version", version=f"{PROG} {package_version()}")
     commands = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND")
     commands.required = True
-    for module in COMMANDS:
+    for name in COMMANDS:
+        module: ModuleType = importlib.import_module(f"tomosim.commands.{name}")
         sub = commands.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(sub)
         sub.set_defaults(run=module.run)
@@ -74,10 +70,9 @@ def _silence_stdout() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line on ``argv`` (``sys.argv[1:]`` when None) and return the exit status."""
-    parser = build_parser()
     arguments = list(sys.argv[1:] if argv is None else argv)
     try:
-        args = parser.parse_args(arguments)
+        args = build_parser().parse_args(arguments)
         with stop_signals_handled():
             return int(args.run(args))
     except UsageError as exc:
