@@ -190,6 +190,7 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
         (["explore", "--robots", "5000"], ["--robots must be from 1 to 16, got 5000", "pairs"]),
         (["explore", "--spawn", "--serve-web"], ["not allowed with"]),
         (["explore", "--steps", "0"], ["--steps"]),
+        (["explore", "--serve-web", "--web-port", "70000"], ["--web-port must be from 1"]),
         (["explore", "--merge-interval", "0"], ["--merge-interval"]),
         (["explore", "--method", "nope"], ["unknown merging method 'nope'"]),
         (["explore", "--record", "run.txt"], [".rrd"]),

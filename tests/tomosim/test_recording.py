@@ -424,6 +424,23 @@ def test_serve_web_hosts_a_viewer_for_a_browser(tmp_path: Path) -> None:
         sinks.stream.disconnect()
 
 
+@pytest.mark.parametrize(
+    ("taken", "option"), [("grpc_port", "--grpc-port"), ("web_port", "--web-port")]
+)
+def test_serving_on_a_port_in_use_is_refused_before_the_run(
+    tmp_path: Path, taken: str, option: str
+) -> None:
+    with socket.socket() as holder:
+        holder.bind(("0.0.0.0", 0))
+        holder.listen()
+        ports = {"grpc_port": free_port(), "web_port": free_port()}
+        ports[taken] = int(holder.getsockname()[1])
+        live = LiveViewer("serve-web", **ports)
+        with pytest.raises(RecordingError, match=f"port {ports[taken]}: it is in use.*{option}"):
+            Recorder.open(record=tmp_path / "r.rrd", live=live)
+    assert not (tmp_path / "r.rrd").exists()
+
+
 def test_connecting_to_no_viewer_is_refused_before_the_run(tmp_path: Path) -> None:
     url = f"rerun+http://127.0.0.1:{free_port()}/proxy"
     with pytest.raises(RecordingError, match="no viewer listens at"):

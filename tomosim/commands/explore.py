@@ -37,7 +37,7 @@ from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.recording import LiveViewer, Recorder, RecordingError
-from tomosim.recording.sinks import DEFAULT_VIEWER_URL, DEFAULT_WEB_PORT
+from tomosim.recording.sinks import DEFAULT_GRPC_PORT, DEFAULT_VIEWER_URL, DEFAULT_WEB_PORT
 from tomosim.team import ORACLE, check_team_method, team_methods
 from tomosim.worlds.world import NoRoomError
 
@@ -151,8 +151,23 @@ def add_live_arguments(parser: argparse.ArgumentParser) -> None:
     live.add_argument(
         "--serve-web",
         action="store_true",
-        help=f"serve a web viewer on port {DEFAULT_WEB_PORT} and keep serving after the run "
+        help="serve a web viewer (on --web-port) and keep serving after the run "
         "until Ctrl-C (watch from a browser; for machines without a display)",
+    )
+    parser.add_argument(
+        "--web-port",
+        type=int,
+        default=DEFAULT_WEB_PORT,
+        metavar="PORT",
+        help=f"--serve-web: the web viewer's port (default {DEFAULT_WEB_PORT})",
+    )
+    parser.add_argument(
+        "--grpc-port",
+        type=int,
+        default=DEFAULT_GRPC_PORT,
+        metavar="PORT",
+        help=f"--serve-web and --spawn: the port the run is streamed from "
+        f"(default {DEFAULT_GRPC_PORT})",
     )
     parser.add_argument(
         "--no-record", action="store_true", help="write no .rrd file (watch live only, or not)"
@@ -213,12 +228,16 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
 
 def live_viewer(args: argparse.Namespace) -> LiveViewer | None:
     """The :class:`~tomosim.recording.LiveViewer` the options ask for, or None."""
+    for option, port in (("--web-port", args.web_port), ("--grpc-port", args.grpc_port)):
+        if not 1 <= port <= 65535:
+            raise UsageError(f"{option} must be from 1 to 65535, got {port}")
+    ports = {"grpc_port": args.grpc_port, "web_port": args.web_port}
     if args.spawn:
-        return LiveViewer("spawn")
+        return LiveViewer("spawn", **ports)
     if args.connect is not None:
         return LiveViewer("connect", url=args.connect)
     if args.serve_web:
-        return LiveViewer("serve-web")
+        return LiveViewer("serve-web", **ports)
     return None
 
 

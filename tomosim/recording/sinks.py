@@ -212,6 +212,30 @@ class Sinks:
             _serve_web(self.live)
 
 
+PORT_OPTIONS = {"grpc_port": "--grpc-port", "web_port": "--web-port"}
+"""The command-line option that chooses each port of :class:`LiveViewer`."""
+
+
+def check_port_free(live: LiveViewer, name: str) -> None:
+    """Raise :class:`RecordingError` when something already listens on ``live``'s port
+    ``name`` (``grpc_port`` or ``web_port``), such as a viewer left running.
+
+    rerun would otherwise log the failure and carry on, serving nothing where
+    the printed address points.
+    """
+    port = getattr(live, name)
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(("0.0.0.0", port))
+        except OSError as exc:
+            raise RecordingError(
+                f"cannot listen on port {port}: it is in use ({exc.strerror}), perhaps by a "
+                f"rerun viewer still running; stop that or choose another port with "
+                f"{PORT_OPTIONS[name]}"
+            ) from exc
+
+
 def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -> str:
     """Add the sink of ``live`` to ``sinks``; returns what to tell the user."""
     if live.mode == "connect":
@@ -224,6 +248,7 @@ def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -
                 "--spawn needs a display to open the viewer's window (DISPLAY is not set); "
                 "use --serve-web and open the printed address in a browser elsewhere"
             )
+        check_port_free(live, "grpc_port")
         try:
             stream.spawn(port=live.grpc_port, connect=False)
         except Exception as exc:  # rerun raises its own error types when the viewer fails
@@ -231,6 +256,8 @@ def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -
         url = f"rerun+http://127.0.0.1:{live.grpc_port}/proxy"
         sinks.append(rr.GrpcSink(url))
         return "streaming to a new viewer window"
+    for name in ("grpc_port", "web_port"):
+        check_port_free(live, name)
     sinks.append(rr.GrpcServerSink(port=live.grpc_port))
     grpc = f"rerun+http://localhost:{live.grpc_port}/proxy"
     return f"http://localhost:{live.web_port}/?url={quote(grpc, safe='')}"
