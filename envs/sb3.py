@@ -37,10 +37,18 @@ class SB3VectorEnv(VecEnv):
     ----------
     venv : gymnasium.vector.VectorEnv
         From :func:`envs.vector.make_supersuit_vector_env`.
+    envs : int
+        The environments behind it (its entries are their robots, in order).
     """
 
-    def __init__(self, venv: Any) -> None:
+    def __init__(self, venv: Any, envs: int = 1) -> None:
+        if not (isinstance(envs, int) and envs >= 1 and venv.num_envs % envs == 0):
+            raise ValueError(
+                f"envs must be a whole number >= 1 dividing the {venv.num_envs} robot "
+                f"entries, got {envs!r}"
+            )
         self.venv = venv
+        self.envs = envs
         self.render_mode = venv.render_mode  # read by VecEnv's constructor
         super().__init__(venv.num_envs, venv.observation_space, venv.action_space)
         self._actions: NDArray[Any] | None = None
@@ -73,11 +81,25 @@ class SB3VectorEnv(VecEnv):
         return observations, np.asarray(rewards, dtype=np.float32), terminated | truncated, infos
 
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
-        """Seed the next :meth:`reset`: environment ``e`` gets ``seed + e``."""
+        """Seed the next :meth:`reset`: environment ``e`` gets ``seed + e``.
+
+        Returns each entry's seed: that of the environment its robot is in.
+        """
         if seed is None:
             return [None] * self.num_envs
-        self._seeds = [seed + index for index in range(self.num_envs)]
+        robots = self.num_envs // self.envs
+        self._seeds = [seed + index // robots for index in range(self.num_envs)]
         return self._seeds
+
+    def get_images(self) -> Sequence[NDArray[np.uint8] | None]:
+        """One frame, of the first environment (SuperSuit draws that one): the image
+        ``render()`` returns, and what ``VecVideoRecorder`` records."""
+        if self.render_mode != "rgb_array":
+            raise ValueError(
+                f"images need render_mode='rgb_array' when the vector env is made, "
+                f"got {self.render_mode!r}"
+            )
+        return [self.venv.render()]
 
     def close(self) -> None:
         """Close the vector env and its processes."""

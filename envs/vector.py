@@ -127,7 +127,7 @@ def make_sb3_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -> Any:
         from envs.sb3 import SB3VectorEnv
     except ImportError as error:
         raise ImportError(f"the SB3 adapter needs Stable-Baselines3: {RL_INSTALL}") from error
-    return SB3VectorEnv(make_supersuit_vector_env(envs, processes=processes, **kwargs))
+    return SB3VectorEnv(make_supersuit_vector_env(envs, processes=processes, **kwargs), envs)
 
 
 def _centralised(kwargs: dict[str, Any]) -> CentralisedExplorationEnv:

@@ -179,6 +179,21 @@ def test_sb3_adapter_seeds_marks_truncation_and_keeps_final_infos() -> None:
 
 
 @needs_rl
+def test_sb3_adapter_names_each_entry_s_seed_and_renders() -> None:
+    from envs.vector import make_sb3_vector_env
+
+    venv = make_sb3_vector_env(2, **SMALL, render_mode="rgb_array")
+    try:
+        assert list(venv.seed(10)) == [10, 10, 11, 11]  # two robots in each environment
+        venv.reset()
+        frame = venv.render()
+        assert frame is not None and frame.ndim == 3 and frame.shape[2] == 3
+        np.testing.assert_array_equal(frame, venv.get_images()[0])
+    finally:
+        venv.close()
+
+
+@needs_rl
 def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
     out = tmp_path / "ppo"
     subprocess.run(
