@@ -142,8 +142,9 @@ Version history
 from __future__ import annotations
 
 import copy
+import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -179,6 +180,9 @@ HELD_OUT_FLOORS = range(0, 1000)
 world (floor 0) is one of them."""
 RESOLUTION_TOLERANCE = 1e-9
 """Relative slack when checking that the crop resolution is a whole number of map cells."""
+
+LOG = logging.getLogger(__name__)
+"""Says when an episode ends as it starts (the team already knows enough)."""
 
 
 def agent_name(index: int) -> str:
@@ -299,6 +303,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self.render_mode = render_mode
         self.max_cycles = int(max_cycles)
         self.coverage_target = float(coverage_target)
+        self._warned_done_at_start = False  # said once per environment
         self.crop_size = int(crop_size)
         self.pool = int(pool)
         self._bound = pose_bound(self.world)
@@ -348,6 +353,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         ``options`` are accepted for the API's sake and not used.
         """
         if seed is not None:
+            if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
+                raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
             self.np_random = np.random.default_rng(seed)
         elif self.np_random is None:
             self.np_random = np.random.default_rng()
@@ -366,6 +373,16 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
             )
             self.agents = list(self.possible_agents)
+            start = self.session.coverage.fraction
+            if start >= self.coverage_target and not self._warned_done_at_start:
+                self._warned_done_at_start = True
+                LOG.warning(
+                    "the robots' first scans already cover %.2f of the free space, at least "
+                    "coverage_target %.2f: this episode ends at its first step; use fewer "
+                    "robots, a larger world or a higher coverage_target",
+                    start,
+                    self.coverage_target,
+                )
             if self.window is not None:
                 self.render()
             return self._observations(), self._infos(merged_now=False)
@@ -385,6 +402,10 @@ class MultiRobotExplorationEnv(ParallelEnv):
             raise RuntimeError("call reset() before step()")
         if not self.agents:
             return {}, {}, {}, {}, {}
+        if not isinstance(actions, Mapping):
+            raise TypeError(
+                f"actions must be a dict of agent name -> action, got {type(actions).__name__}"
+            )
         unknown = set(actions) - set(self.possible_agents)
         if unknown:
             raise ValueError(

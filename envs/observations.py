@@ -139,7 +139,13 @@ def observe(
 
 def command(action: object, *, name: str) -> tuple[float, float]:
     """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
-    values = np.asarray(action, dtype=np.float64).reshape(-1)
+    values = np.empty(0)
+    try:
+        given = np.asarray(action)
+        if not np.iscomplexobj(given):
+            values = given.astype(np.float64).reshape(-1)
+    except (TypeError, ValueError):  # text, dicts, ragged lists: refused below
+        pass
     if values.shape == (2,):
         linear, angular = values.tolist()
         if math.isfinite(linear) and math.isfinite(angular):

@@ -175,8 +175,23 @@ def test_bad_arguments_are_rejected() -> None:
         small_env(robots=0)
     env = small_env()
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="robot_0"):
-        env.step({"robot_0": np.array([np.nan, 0.0])})
+    for action in (np.array([np.nan, 0.0]), "ab", {"lin": 1}, [1, [2, 3]], [1 + 2j, 0]):
+        with pytest.raises(ValueError, match="the action of robot_0 must be two finite"):
+            env.step({"robot_0": action})
+    with pytest.raises(TypeError, match="dict of agent name"):
+        env.step([[0, 0], [0, 0]])  # type: ignore[arg-type]
+    for seed in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="seed must be a whole number"):
+            env.reset(seed=seed)  # type: ignore[arg-type]
+
+
+def test_a_start_that_already_meets_the_target_is_said(caplog: pytest.LogCaptureFixture) -> None:
+    env = small_env(coverage_target=1e-6)
+    with caplog.at_level("WARNING", logger="envs.multi_robot_exploration_v0"):
+        env.reset(seed=0)
+        env.reset(seed=1)
+    said = [r.getMessage() for r in caplog.records if "first scans already cover" in r.getMessage()]
+    assert len(said) == 1 and "coverage_target" in said[0]  # once per environment
 
 
 @pytest.mark.parametrize(
