@@ -26,7 +26,7 @@ from tomosim.lidar import Lidar, LidarConfig, Scan
 from tomosim.mapping import LogOddsMap, MappingConfig
 from tomosim.odometry import Odometry, OdometryConfig
 from tomosim.physics import Physics, PhysicsConfig
-from tomosim.worlds.world import RngLike, World, as_generator
+from tomosim.worlds.world import NoRoomError, RngLike, World, as_generator
 
 START_CLEARANCE_MARGIN = 0.15
 """Metres of free space beyond the robot radius around a random start position."""
@@ -155,12 +155,22 @@ class Simulation:
         if poses is None:
             if robots < 1:
                 raise ValueError(f"robots must be at least 1, got {robots}")
-            start = world.sample_free_poses(
-                robots,
-                clearance=radius + START_CLEARANCE_MARGIN,
-                min_separation=START_SEPARATION_RADII * radius,
-                rng=generator,
-            )
+            separation = START_SEPARATION_RADII * radius
+            try:
+                start = world.sample_free_poses(
+                    robots,
+                    clearance=radius + START_CLEARANCE_MARGIN,
+                    min_separation=separation,
+                    rng=generator,
+                )
+            except NoRoomError as exc:  # its advice names sample_free_poses' own setting
+                raise NoRoomError(
+                    f"could only place {exc.placed} of {robots} robots {separation:g} m apart "
+                    f"in {world.name!r}; use {max(exc.placed, 1)} robots or fewer, or a "
+                    "larger world",
+                    placed=exc.placed,
+                    requested=robots,
+                ) from exc
         else:
             start = np.asarray(poses, dtype=float)
             if start.ndim != 2 or start.shape[1] != 3 or not np.all(np.isfinite(start)):
