@@ -508,3 +508,20 @@ def test_an_interrupt_before_the_run_began_says_nothing_was_recorded(tmp_path: P
     assert not recorder.started
     recorder.close()
     assert not missing.exists()
+
+
+def test_the_settings_line_names_the_policy_and_the_radios_reach() -> None:
+    from tomosim.commands.explore_report import settings_line
+
+    settings = {"world": "floorplan seed=0", "robots": 1, "policy": "nearest", "merge": True,
+                "merge_interval": 50, "method": "tomographic", "comm_range": 5.0,
+                "line_of_sight": True, "seed": 3}  # fmt: skip
+    assert settings_line(settings) == (
+        "world floorplan seed=0, 1 robot, nearest policy, merging every 50 steps "
+        "(tomographic), talking within 5 m in line of sight, seed 3"
+    )
+    plain = {**settings, "robots": 3, "merge": False, "comm_range": None}
+    assert (
+        settings_line(plain)
+        == "world floorplan seed=0, 3 robots, nearest policy, no merging, seed 3"
+    )

@@ -12,7 +12,7 @@ the recording's ``team/`` series for ``review`` (:func:`recorded_figures`).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -101,21 +101,32 @@ def episode_rows(metrics: EpisodeMetrics) -> list[tuple[str, bool, bool, float, 
     ]
 
 
-def render_summary(metrics: EpisodeMetrics) -> str:
-    """The text ``tomosim explore`` ends with."""
-    s = metrics.settings
+def settings_line(s: Mapping[str, Any]) -> str:
+    """A run's settings in one line, as ``tomosim explore`` and ``tomosim review`` head
+    their reports: the world, the team, its policy, merging, the reach of its radios."""
     merging = (
         f"merging every {s['merge_interval']} steps ({s['method']})" if s["merge"] else "no merging"
     )
+    policy = f"{s['policy']} policy, " if s.get("policy") else ""
+    reach = ""
+    if s.get("comm_range") is not None:
+        sight = " in line of sight" if s.get("line_of_sight") else ""
+        reach = f", talking within {s['comm_range']:g} m{sight}"
+    robots = f"{s['robots']} robot{'' if s['robots'] == 1 else 's'}"
+    return f"world {s['world']}, {robots}, {policy}{merging}{reach}, seed {s['seed']}"
+
+
+def render_summary(metrics: EpisodeMetrics) -> str:
+    """The text ``tomosim explore`` ends with."""
+    s = metrics.settings
     target = metrics.steps_to(float(s["coverage_target"]))
     reached = (
         "not reached"
         if target is None
         else f"reached at step {target}, {target * metrics.dt:.1f} s"
     )
-    policy = f"{s['policy']} policy, " if "policy" in s else ""
     lines = [
-        f"world {s['world']}, {s['robots']} robots, {policy}{merging}, seed {s['seed']}",
+        settings_line(s),
         "",
         f"{'steps':<18}{metrics.steps} ({metrics.sim_seconds:.1f} s simulated, "
         f"{metrics.wall_seconds:.1f} s wall clock)",
@@ -130,7 +141,9 @@ def render_summary(metrics: EpisodeMetrics) -> str:
             f"{'path length':<18}{metrics.path_length:.1f} m ({each})",
             f"{'own coverage':<18}{own}; overlap rate {metrics.overlap_rate:.2f}",
         ]
-    if metrics.merges:
+    if metrics.merges and len(metrics.drift) == 1:
+        lines.append(f"{'merge rounds':<18}{len(metrics.merges)}: one robot, no pair to merge")
+    elif metrics.merges:
         rows = episode_rows(metrics)
         accepted = sum(1 for row in rows if row[1])
         confirmed = sum(1 for row in rows if row[2])
@@ -143,7 +156,7 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         ]
     drift = "; ".join(f"r{k} {h:.2f} deg {p:.2f} m" for k, (h, p) in enumerate(metrics.drift))
     lines.append(f"{'odometry drift':<18}{drift}")
-    if metrics.merges:
+    if metrics.merges and len(metrics.drift) > 1:
         lines += ["", pair_table(summarise_pairs(episode_rows(metrics)))]
     if metrics.record is not None:
         lines += ["", f"recording: {metrics.record} (view: rerun {metrics.record})"]

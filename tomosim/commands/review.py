@@ -28,6 +28,7 @@ from tomosim.commands.explore_report import (
     pair_table,
     recorded_figures,
     render_figures,
+    settings_line,
     summarise_pairs,
 )
 from tomosim.recording import RecordedRun, read_recording
@@ -128,11 +129,7 @@ def render(report: dict[str, Any]) -> str:
     s = report["settings"]
     lines = [f"recording {report['recording']}", f"run {report['status']}"]
     if s:
-        merging = f"merging every {s['merge_interval']} steps ({s['method']})"
-        lines.append(
-            f"world {s['world']}, {s['robots']} robots, "
-            f"{merging if s['merge'] else 'no merging'}, seed {s['seed']}"
-        )
+        lines.append(settings_line(s))
     lines += ["", "merge-quality timeline (errors of accepted estimates against the truth)"]
     header = (
         f"{'step':>6}  {'pair':<7}{'confidence':>11}{'accepted':>10}{'confirmed':>11}"

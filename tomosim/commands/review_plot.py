@@ -174,13 +174,16 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
             f"merging every {s.get('merge_interval')} steps" if s.get("merge") else "no merging"
         )
         coverage = report["coverage"]
+        policy = f"{s['policy']} policy, " if s.get("policy") else ""
         figure.suptitle(
-            f"{s.get('world')}: {s.get('robots')} robots, {merging}, final coverage "
+            f"{s.get('world')}: {s.get('robots')} robots, {policy}{merging}, final coverage "
             f"{'-' if coverage is None else f'{coverage:.3f}'} after {report['steps']} steps",
             fontsize=11,
         )
     if not report.get("finished", True):
-        figure.text(0.01, 0.01, f"run {report['status']}", color="darkred", fontsize=9)
+        # A figure-level label, so that the constrained layout keeps room for it below
+        # the axes' own labels.
+        figure.supxlabel(f"run {report['status']}", x=0.01, ha="left", color="darkred", fontsize=9)
     partial = path.with_name(path.name + ".partial")
     try:
         figure.savefig(partial, dpi=DPI, format="png")
