@@ -194,7 +194,7 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
         (["explore", "--merge-interval", "0"], ["--merge-interval"]),
         (["explore", "--method", "nope"], ["unknown merging method 'nope'"]),
         (["explore", "--record", "run.txt"], [".rrd"]),
-        (["explore", "--world", "map.png"], ["--world must be a seed or a map_server .yaml"]),
+        (["explore", "--world", "map.png"], ["--world must be a seed", "map_server .yaml"]),
         (["explore", "--coverage-target", "1.5"], ["--coverage-target"]),
         (["explore", "--seed", "-1"], ["--seed"]),
         (["explore", "--policy", "greedy"], ["unknown policy 'greedy'", "utility"]),
@@ -220,7 +220,7 @@ def test_missing_map_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     earlier.write_bytes(b"an earlier run's recording")
     status, _, err = run(["explore", "--world", str(missing), "--record", str(earlier)], capsys)
     assert status == 1
-    assert_one_line_error(err, "not found", "nowhere.yaml")
+    assert_one_line_error(err, "--world", "nowhere.yaml: no such map file")
     assert earlier.read_bytes() == b"an earlier run's recording"  # a run that never started
 
 

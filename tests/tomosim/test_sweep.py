@@ -153,13 +153,17 @@ def test_foreign_csv_is_refused(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     "content", [b"name,score\nalice,1\nbob,2", b"\x89PNG\r\n\x1a\n\x00\xb2\xff binary"]
 )
-def test_resuming_into_another_file_leaves_it_whole(tmp_path: Path, content: bytes) -> None:
+@pytest.mark.parametrize("resume", [True, False])
+def test_resuming_into_another_file_leaves_it_whole(
+    tmp_path: Path, content: bytes, resume: bool
+) -> None:
     # Its last line has no newline, as a torn row would: it must not be cut off
-    # before the columns show that the file is not a sweep's.
+    # before the columns show that the file is not a sweep's. Without --resume the
+    # message must not advise it: it could not help.
     out = tmp_path / "mine.csv"
     out.write_bytes(content)
     with pytest.raises(ValueError, match="not a tomosim sweep results file"):
-        run_sweep(four_episodes(), out, resume=True)
+        run_sweep(four_episodes(), out, resume=resume)
     assert out.read_bytes() == content
 
 
@@ -295,6 +299,10 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
         (["--seeds", "-1"], ["--seeds must be non-negative integers, got -1"], 2),
         (["--world-size", "0", "9"], ["--world-size must be two positive numbers"], 2),
         (["--record-dir", __file__], ["--record-dir", "is a file; give a folder"], 2),
+        (["--steps", "0"], ["--steps must be at least 1, got 0"], 2),
+        (["--comm-range", "-2"], ["--comm-range must be a positive number"], 2),
+        (["--line-of-sight"], ["--line-of-sight needs --comm-range"], 2),
+        (["--policies", "foo"], ["unknown policy 'foo' in --policies", "utility"], 2),
     ],
 )
 def test_sweep_errors_are_one_line(

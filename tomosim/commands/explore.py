@@ -209,7 +209,10 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"--record must name an .rrd file, got {args.record}")
     world: int | Path = int(args.world) if args.world.strip().isdigit() else Path(args.world)
     if isinstance(world, Path) and world.suffix not in (".yaml", ".yml"):
-        raise UsageError(f"--world must be a seed or a map_server .yaml file, got {args.world!r}")
+        raise UsageError(
+            f"--world must be a seed (a whole number >= 0) or a map_server .yaml file, "
+            f"got {args.world!r}"
+        )
     return EpisodeConfig(
         world=world,
         robots=args.robots,
@@ -244,6 +247,11 @@ def live_viewer(args: argparse.Namespace) -> LiveViewer | None:
 def run(args: argparse.Namespace) -> int:
     """Run the episode and print its summary; returns the exit status."""
     config = build_config(args)
+    if isinstance(config.world, Path) and not config.world.is_file():
+        raise CommandError(
+            f"--world {config.world}: no such map file; give a map_server .yaml file or a "
+            "floor-plan seed"
+        )
     live = live_viewer(args)
     if config.record is not None:
         check_writable(config.record, option="--record")

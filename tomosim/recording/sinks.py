@@ -116,9 +116,9 @@ def check_viewer_reachable(url: str) -> None:
         with socket.create_connection((parsed.hostname, port), timeout=CONNECT_TIMEOUT_S):
             pass
     except OSError as exc:
+        instead = "or use --spawn" if has_display() else "or use --serve-web (no display here)"
         raise RecordingError(
-            f"no viewer listens at {url} ({exc.strerror or exc}); start one with 'rerun' "
-            "or use --spawn"
+            f"no viewer listens at {url} ({exc.strerror or exc}); start one with 'rerun' {instead}"
         ) from exc
 
 

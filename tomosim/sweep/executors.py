@@ -126,6 +126,7 @@ def run_sweep(
     try:
         with results.locked():
             if had_rows and not resume:
+                results.check_columns()  # another file: --resume would not help
                 raise ValueError(
                     f"{results.path} already holds results; pass --resume or choose --out"
                 )
