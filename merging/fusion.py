@@ -123,6 +123,7 @@ def fuse(
     matrices: Sequence[ArrayLike | None],
     *,
     frame: OccupancyGrid | None = None,
+    names: Sequence[tuple[str, str]] | None = None,
 ) -> FusedMap:
     """Fuse grids whose transforms into one common cell frame are known.
 
@@ -139,6 +140,9 @@ def fuse(
         another resolution needs a matrix that scales by the ratio of the
         resolutions (as :func:`merging.estimate_transform` gives); a finer
         one is coarsened to the frame's resolution before it is laid in.
+    names : sequence of (str, str), optional
+        Per map, how error messages call it and its matrix (by default
+        ``maps[k]`` and ``matrices[k]``).
 
     Returns
     -------
@@ -149,19 +153,23 @@ def fuse(
         raise ValueError(f"got {len(maps)} maps but {len(matrices)} matrices; give one per map")
     if frame is not None and not isinstance(frame, OccupancyGrid):
         raise TypeError(f"frame must be an OccupancyGrid or None, got {type(frame).__name__}")
+    called = list(names) if names is not None else []
+    called += [(f"maps[{k}]", f"matrices[{k}]") for k in range(len(called), len(maps))]
     moves = {
-        k: _check_affine(m, name=f"matrices[{k}]") for k, m in enumerate(matrices) if m is not None
+        k: _check_affine(m, name=called[k][1]) for k, m in enumerate(matrices) if m is not None
     }
     if not moves:
         raise ValueError("no map to fuse: every matrix is None")
     used = sorted(moves)
     given = dict(moves)  # each map's own cells -> the frame's, for to_fused
-    cells = {k: validate_cells(maps[k], name=f"maps[{k}]") for k in used}
+    cells = {k: validate_cells(maps[k], name=called[k][0]) for k in used}
     if frame is not None:
         for k in used:
             item = maps[k]
             if isinstance(item, OccupancyGrid):
-                cells[k], moves[k] = _at_frame_resolution(item, moves[k], frame, name=f"maps[{k}]")
+                cells[k], moves[k] = _at_frame_resolution(
+                    item, moves[k], frame, name=called[k][0], matrix_name=called[k][1]
+                )
     if any(np.any(cells[k] >= 0) for k in used):
         # Only what was observed is laid in: unknown borders of the inputs' canvases
         # would only widen the fused grid.
@@ -207,7 +215,12 @@ resolutions: estimated similarity transforms are not exact."""
 
 
 def _at_frame_resolution(
-    grid: OccupancyGrid, matrix: NDArray[np.float64], frame: OccupancyGrid, *, name: str
+    grid: OccupancyGrid,
+    matrix: NDArray[np.float64],
+    frame: OccupancyGrid,
+    *,
+    name: str,
+    matrix_name: str,
 ) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
     """The grid's cells and matrix ready to warp into ``frame``'s cells.
 
@@ -222,7 +235,7 @@ def _at_frame_resolution(
     if abs(scale - ratio) > SCALE_TOLERANCE * ratio:
         raise ValueError(
             f"{name} has resolution {grid.resolution} m and the frame {frame.resolution} m, "
-            f"so its matrix must scale by {ratio:.4g}, but it scales by {scale:.4g}; "
+            f"so {matrix_name} must scale by {ratio:.4g}, but it scales by {scale:.4g}; "
             "use the matrix merging.estimate_transform returns for the two grids"
         )
     if ratio >= 1.0 - SCALE_TOLERANCE:
@@ -268,4 +281,5 @@ def merge(
             "merge only pairs with a (3, 3) matrix, or use fuse() to leave maps out"
         )
     frame = map1 if isinstance(map1, OccupancyGrid) else None
-    return fuse([map1, map2], [np.eye(3), matrix], frame=frame)
+    names = [("map1", "the identity"), ("map2", "matrix")]
+    return fuse([map1, map2], [np.eye(3), matrix], frame=frame, names=names)

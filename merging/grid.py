@@ -85,8 +85,21 @@ def validate_cells(cells: object, *, name: str = "map") -> NDArray[np.int8]:
             )
     low, high = cells.min(), cells.max()
     if low < UNKNOWN or high > OCCUPIED:
+        hint = ""
+        if low >= 0 and high <= 255:
+            hint = (
+                "; pixels of a map_server image? load its .yaml with merging.load_map; "
+                "a nav_msgs grid read as unsigned bytes holds 255 for unknown: view it "
+                "as int8 (cells.astype(np.int8))"
+            )
         raise ValueError(
-            f"{name} values must lie in -1..100 (ROS coding), got range [{low}, {high}]"
+            f"{name} values must lie in -1..100 (ROS coding), got range [{low}, {high}]{hint}"
+        )
+    if high == 1 and low >= 0 and not np.any((cells != 0) & (cells != 1)):
+        raise ValueError(
+            f"{name} holds only 0 and 1, which the ROS coding reads as free everywhere "
+            "(100 is occupied); a mask or probabilities? use OccupancyGrid.from_bool or "
+            "OccupancyGrid.from_probability"
         )
     if cells.dtype == np.int8:
         return cells

@@ -120,14 +120,22 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     image_path = _image_of(path, meta)
     if not isinstance(meta["origin"], list | tuple):
         raise ValueError(f"{path}: origin must be a list [x, y, yaw], got {meta['origin']!r}")
-    try:
-        resolution = float(meta["resolution"])
-        origin_values = [float(v) for v in meta["origin"]]
-        negate = int(meta.get("negate", 0))
-        occupied_thresh = float(meta.get("occupied_thresh", 0.65))
-        free_thresh = float(meta.get("free_thresh", 0.196))
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{path} has a malformed number: {exc}") from exc
+
+    def number(key: str, kind: type, default: object = None) -> Any:
+        value = meta.get(key, default)
+        try:
+            return [kind(v) for v in value] if key == "origin" else kind(value)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"{path}: {key} must be {'numbers' if key == 'origin' else 'a number'}, "
+                f"got {value!r}"
+            ) from exc
+
+    resolution = number("resolution", float)
+    origin_values = number("origin", float)
+    negate = number("negate", int, 0)
+    occupied_thresh = number("occupied_thresh", float, 0.65)
+    free_thresh = number("free_thresh", float, 0.196)
     if len(origin_values) != 3:
         raise ValueError(f"{path}: origin must be [x, y, yaw], got {meta['origin']}")
     mode = str(meta.get("mode", "trinary"))
@@ -278,7 +286,8 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
     FileNotFoundError
         If the YAML's folder does not exist.
     ValueError
-        If ``yaml_path`` ends in the image's suffix (the image would overwrite it).
+        If ``yaml_path`` does not end in ``.yaml`` or ``.yml``, or ends in the
+        image's suffix (the image would overwrite it).
     OSError
         If a file cannot be written (nothing is replaced then).
     """
@@ -294,6 +303,11 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
         raise ValueError(
             f"yaml_path {str(path)!r} is where the {image_format} image would go (the image "
             "takes the YAML's name with its own suffix); give the YAML's path, ending in .yaml"
+        )
+    if path.suffix not in (".yaml", ".yml"):
+        raise ValueError(
+            f"yaml_path {str(path)!r} must end in .yaml (or .yml): map_server and load_map "
+            "read the map from its YAML file"
         )
     pixels = np.full(grid.shape, PIXEL_UNKNOWN, dtype=np.uint8)
     pixels[grid.free()] = PIXEL_FREE

@@ -96,7 +96,7 @@ def test_a_finer_map_2_is_placed_by_its_own_cells(building) -> None:
 def test_fusing_needs_a_matrix_that_scales_by_the_resolutions() -> None:
     a = OccupancyGrid(np.zeros((5, 5), dtype=np.int8), resolution=0.05)
     b = OccupancyGrid(np.zeros((5, 5), dtype=np.int8), resolution=0.1)
-    with pytest.raises(ValueError, match="must scale by 2"):
+    with pytest.raises(ValueError, match=r"map2 has resolution 0\.1 m.*matrix must scale by 2"):
         merging.merge(a, b, np.eye(3))
 
 

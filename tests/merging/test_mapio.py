@@ -154,7 +154,9 @@ def test_missing_image_is_file_not_found(tmp_path: Path) -> None:
         ("- just\n- a list\n", "mapping"),
         ("image: map.png\nresolution: 0.05\n", "origin"),
         ("image: map.png\norigin: [0, 0, 0]\n", "resolution"),
-        ("image: map.png\nresolution: fine\norigin: [0, 0, 0]\n", "malformed number"),
+        ("image: map.png\nresolution: fine\norigin: [0, 0, 0]\n", "resolution must be a number"),
+        ("image: map.png\nresolution: 0.05\norigin: [0, a, 0]\n", "origin must be numbers"),
+        ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 'no'\n", "negate must"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0]\n", r"\[x, y, yaw\]"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nmode: odd\n", "mode"),
         ("image: map.png\nresolution: 0.05\norigin: '123'\n", r"origin must be a list"),
@@ -260,6 +262,12 @@ def test_save_refuses_a_yaml_path_named_like_its_image(tmp_path: Path, image_for
         save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), target, image_format=image_format)
     assert target.read_bytes() == b"an earlier image"
     assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]
+
+
+def test_save_refuses_a_yaml_path_without_the_yaml_suffix(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"must end in \.yaml"):
+        save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), tmp_path / "m.txt")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_sixteen_bit_image_reads_as_its_eight_bit_twin(tmp_path: Path) -> None:
