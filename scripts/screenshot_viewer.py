@@ -32,7 +32,7 @@ from tomosim.commands import check_writable
 from tomosim.commands.script_args import positive_int, run_script
 
 WINDOW_SIZE = "1600x1000"
-"""Logical size of the viewer's window; the PNG has twice as many pixels a side."""
+"""Size of the viewer's window, and of the PNG, in pixels."""
 DEFAULT_PORT = 9871
 """gRPC port of the headless viewer; not rerun's default 9876, to leave a user's viewer alone."""
 MAX_PORT = 65535
@@ -162,7 +162,12 @@ def photograph(recording: Path, out: Path, *, port: int) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--recording", type=Path, help="a .rrd file (default: record one)")
-    parser.add_argument("--out", type=Path, default=Path("docs/figures/viewer.png"))
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("docs/figures/viewer.png"),
+        help="the PNG to write (default: docs/figures/viewer.png, the README's picture)",
+    )
     parser.add_argument(
         "--port", type=positive_int, default=DEFAULT_PORT, help="the viewer's gRPC port"
     )

@@ -45,9 +45,9 @@ MARGIN_FRACTION = 0.03
 """Blank border around the world in the world view, as a fraction of its larger side."""
 WORLD_SHARE, SIDE_SHARE = 3, 2
 """Widths of the world view and of the maps-and-charts column."""
-MAPS_SHARE, CHARTS_SHARE = 2, 3
+MAPS_SHARE, CHARTS_SHARE = 1, 2
 """Heights of the map tabs and of the charts in the right column (the merged map is
-in the world view too; the charts need the height to show their values)."""
+in the world view too; the charts need the height to show their values and legends)."""
 
 
 def world_view(
@@ -102,13 +102,15 @@ def chart_views(*, merging: bool) -> list[rrb.TimeSeriesView]:
                 name="Rotation error [deg]",
                 origin="/",
                 contents=[f"+ {quantity_path('rotation_error_deg')}/**"],
-                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),  # errors fall
+                # Errors fall from where the first estimates start: the lower left, before
+                # them, stays clear; on the right a late pair's first estimates arrive.
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftBottom),
             ),
             rrb.TimeSeriesView(
                 name="Translation error [m]",
                 origin="/",
                 contents=[f"+ {quantity_path('translation_error_m')}/**"],
-                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.RightTop),
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftBottom),
             ),
             rrb.TimeSeriesView(
                 name="Confidence, agreement",
