@@ -95,11 +95,17 @@ def validate_cells(cells: object, *, name: str = "map") -> NDArray[np.int8]:
         raise ValueError(
             f"{name} values must lie in -1..100 (ROS coding), got range [{low}, {high}]{hint}"
         )
-    if high == 1 and low >= 0 and not np.any((cells != 0) & (cells != 1)):
+    if (
+        np.issubdtype(cells.dtype, np.floating)
+        and high == 1
+        and not np.any((cells != UNKNOWN) & (cells != 0) & (cells != 1))
+    ):
+        # Grids the library makes are int8; a float array of 0 and 1 is a mask or
+        # probabilities far more often than percentages that happen to stay below 2.
         raise ValueError(
-            f"{name} holds only 0 and 1, which the ROS coding reads as free everywhere "
-            "(100 is occupied); a mask or probabilities? use OccupancyGrid.from_bool or "
-            "OccupancyGrid.from_probability"
+            f"{name} is a float array of only 0 and 1 (and -1), which the ROS coding reads "
+            "as free everywhere (100 is occupied); a mask or probabilities? use "
+            "OccupancyGrid.from_bool or OccupancyGrid.from_probability"
         )
     if cells.dtype == np.int8:
         return cells

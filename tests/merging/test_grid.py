@@ -100,6 +100,14 @@ def test_validate_cells_accepts_the_coding_and_returns_int8() -> None:
     assert validate_cells(grid) is grid.data
 
 
+def test_grids_of_only_0_and_1_percent_are_taken_unless_a_float_mask() -> None:
+    # 0 and 1 percent are free cells of a map, as int8 grids, probabilities or loaded
+    # maps hold them; a float array of 0.0 and 1.0 is refused above.
+    np.testing.assert_array_equal(validate_cells(np.array([[0, 1]], np.int8)), [[0, 1]])
+    grid = OccupancyGrid.from_probability(np.array([[0.0, 0.01]]))
+    np.testing.assert_array_equal(grid.data, [[0, 1]])
+
+
 @pytest.mark.parametrize(
     ("cells", "error", "message"),
     [
