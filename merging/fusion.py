@@ -154,6 +154,14 @@ def fuse(
     if frame is not None and not isinstance(frame, OccupancyGrid):
         raise TypeError(f"frame must be an OccupancyGrid or None, got {type(frame).__name__}")
     called = list(names) if names is not None else []
+    if len(called) > len(maps) or not all(
+        isinstance(pair, tuple) and len(pair) == 2 and all(isinstance(n, str) for n in pair)
+        for pair in called
+    ):
+        raise ValueError(
+            f"names must hold at most one (map name, matrix name) pair of strings per map, "
+            f"got {names!r}"
+        )
     called += [(f"maps[{k}]", f"matrices[{k}]") for k in range(len(called), len(maps))]
     moves = {
         k: _check_affine(m, name=called[k][1]) for k, m in enumerate(matrices) if m is not None
@@ -170,9 +178,11 @@ def fuse(
                 cells[k], moves[k] = _at_frame_resolution(
                     item, moves[k], frame, name=called[k][0], matrix_name=called[k][1]
                 )
-    if any(np.any(cells[k] >= 0) for k in used):
-        # Only what was observed is laid in: unknown borders of the inputs' canvases
-        # would only widen the fused grid.
+    seen = [k for k in used if np.any(cells[k] >= 0)]
+    if seen:
+        # Only what was observed is laid in: unknown borders of the inputs' canvases,
+        # and inputs with nothing observed, would only widen the fused grid.
+        used = seen
         for k in used:
             cells[k], corner = observed_part(cells[k])
             moves[k] = moves[k] @ _translation(float(corner[0]), float(corner[1]))

@@ -188,3 +188,18 @@ def test_maps_with_nothing_observed_keep_their_canvas() -> None:
     blank = np.full((4, 6), -1, dtype=np.int8)
     fused = merge(blank, blank.copy(), translation(2, 0))
     assert fused.cells.shape == (4, 8)
+
+
+def test_a_map_with_nothing_observed_does_not_widen_the_canvas() -> None:
+    seen = np.full((20, 20), -1, dtype=np.int8)
+    seen[5:8, 4:6] = 0
+    blank = np.full((200, 300), -1, dtype=np.int8)
+    fused = fuse([seen, blank], [np.eye(3), translation(-50, -60)])
+    assert fused.cells.shape == (3, 2)
+    np.testing.assert_allclose(fused.to_fused[1], fused.offset @ translation(-50, -60))
+
+
+def test_names_are_checked() -> None:
+    cells = np.zeros((3, 3), dtype=np.int8)
+    with pytest.raises(ValueError, match="names must hold"):
+        fuse([cells], [np.eye(3)], names=["map1"])  # type: ignore[list-item]
