@@ -303,13 +303,15 @@ def refusal_reason(
     values = dict(zip(CLOSE_FACTORS, close, strict=True))
     failing = [name for name in REASON_ORDER if values[name] < 0.5]
     cause = failing[0] if failing else min(values, key=lambda name: values[name])
-    small = False
+    few_walls = little_space = False
     competitor = ""  # the close fit's runner-up; "tolerant_" for the robust way's
     if cause == "fit" and robust:
         weak = {name for name, value in robust.items() if value < 0.5}
-        small = bool(weak & {"agreeing", "open_share"})
-        if small:
-            cause = "support" if values["support"] < 0.5 else "fit"
+        few_walls, little_space = "agreeing" in weak, "open_share" in weak
+        if few_walls and values["support"] < 0.5:
+            cause = "support"
+        elif few_walls or little_space:
+            cause = "fit"
         elif "margin" in weak:
             cause = "distinct"
         else:
@@ -324,10 +326,15 @@ def refusal_reason(
             f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
             "symmetric part of the building"
         )
-    if cause == "fit" and small:
+    if cause == "fit" and few_walls:
         return (
             "the walls do not line up: too few of them meet, even allowing a few cells for "
             "maps drawn in separate sessions"
+        )
+    if cause == "fit" and little_space:
+        return (
+            "the walls do not line up closely, and the maps share too little open space to "
+            "vouch for maps drawn in separate sessions"
         )
     return {
         "fit": "the walls do not line up: too many of them land on the other map's open "
