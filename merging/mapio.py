@@ -7,9 +7,13 @@ functions flip rows. Pixel values are interpreted as ``map_server`` does:
 
 * ``trinary``: ``occ > occupied_thresh`` -> 100, ``occ < free_thresh`` -> 0, else -1;
 * ``scale``: unknown where the pixel is not opaque (an image with an alpha
-  channel), else as trinary at the extremes, linear in between (as ROS 2's
-  ``map_server`` reads it; ROS 1's applies the thresholds before the alpha);
+  channel or a transparent colour), else as trinary at the extremes, linear
+  in between (as ROS 2's ``map_server`` reads it; ROS 1's applies the
+  thresholds before the alpha);
 * ``raw``: the pixel value itself (values above 100 become unknown).
+
+Outside ``scale`` mode the alpha channel is not read (``map_server`` folds it
+into the grey level of colour images; a map's image rarely has one).
 """
 
 from __future__ import annotations
@@ -227,7 +231,7 @@ def grey_levels(image: Image.Image) -> NDArray[np.float64]:
 
 def transparent(image: Image.Image) -> NDArray[np.bool_] | None:
     """Where the image is not opaque; None for an image without an alpha channel."""
-    if image.mode == "P" and "transparency" in image.info:
+    if "transparency" in image.info:  # a colour key (PNG's tRNS) rather than a channel
         image = image.convert("RGBA")
     if "A" not in image.getbands():
         return None

@@ -116,7 +116,8 @@ def test_scale_mode_is_linear_between_the_thresholds(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("mode", ["scale", "trinary"])
 def test_scale_mode_reads_see_through_pixels_as_unknown(tmp_path: Path, mode: str) -> None:
-    # Grey with alpha: black, mid grey and white, the last two columns see-through.
+    # Grey with alpha: black, mid grey, black and white, the last two see-through
+    # (trinary mode does not read the alpha).
     grey = np.array([[0, 128, 0, 255]], dtype=np.uint8)
     alpha = np.array([[255, 255, 0, 128]], dtype=np.uint8)
     Image.fromarray(np.dstack([grey, alpha]), mode="LA").save(tmp_path / "map.png")
@@ -124,6 +125,15 @@ def test_scale_mode_reads_see_through_pixels_as_unknown(tmp_path: Path, mode: st
     (tmp_path / "map.yaml").write_text(yaml.safe_dump(fields))
     expected = [100, 66, -1, -1] if mode == "scale" else [100, -1, 100, 0]
     np.testing.assert_array_equal(load_map(tmp_path / "map.yaml").data[0], expected)
+
+
+def test_scale_mode_reads_a_transparent_colour_as_unknown(tmp_path: Path) -> None:
+    Image.fromarray(np.array([[0, 0, 254]], np.uint8)).save(tmp_path / "map.png")
+    with Image.open(tmp_path / "map.png") as plain:  # black is the transparent colour
+        plain.save(tmp_path / "map.png", transparency=0)
+    fields = {"image": "map.png", "resolution": 0.05, "origin": [0.0, 0.0, 0.0], "mode": "scale"}
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(fields))
+    np.testing.assert_array_equal(load_map(tmp_path / "map.yaml").data[0], [-1, -1, 0])
 
 
 def test_real_map_has_its_documented_shape_and_origin(maps_dir: Path) -> None:
