@@ -191,6 +191,10 @@ def write_map(folder: Path, data: np.ndarray) -> Path:
         (["explore", "--spawn", "--serve-web"], ["not allowed with"]),
         (["explore", "--steps", "0"], ["--steps"]),
         (["explore", "--serve-web", "--web-port", "70000"], ["--web-port must be from 1"]),
+        (
+            ["explore", "--serve-web", "--web-port", "9000", "--grpc-port", "9000"],
+            ["--web-port and --grpc-port must differ"],
+        ),
         (["explore", "--merge-interval", "0"], ["--merge-interval"]),
         (["explore", "--method", "nope"], ["unknown merging method 'nope'"]),
         (["explore", "--record", "run.txt"], [".rrd"]),

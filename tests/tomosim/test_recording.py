@@ -441,6 +441,22 @@ def test_serving_on_a_port_in_use_is_refused_before_the_run(
     assert not (tmp_path / "r.rrd").exists()
 
 
+def test_serving_where_an_ipv6_listener_holds_the_port_is_refused(tmp_path: Path) -> None:
+    # A browser's "localhost" may be ::1: a program there would answer the address.
+    try:
+        holder = socket.socket(socket.AF_INET6)
+        holder.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+        holder.bind(("::1", 0))
+    except OSError:
+        pytest.skip("no IPv6 loopback here")
+    with holder:
+        holder.listen()
+        taken = int(holder.getsockname()[1])
+        live = LiveViewer("serve-web", grpc_port=free_port(), web_port=taken)
+        with pytest.raises(RecordingError, match=f"port {taken}: it is in use"):
+            Recorder.open(record=tmp_path / "r.rrd", live=live)
+
+
 def test_connecting_to_no_viewer_is_refused_before_the_run(tmp_path: Path) -> None:
     url = f"rerun+http://127.0.0.1:{free_port()}/proxy"
     with pytest.raises(RecordingError, match="no viewer listens at"):

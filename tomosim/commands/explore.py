@@ -184,6 +184,11 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         )
     if args.steps < 1:
         raise UsageError(f"--steps must be at least 1, got {args.steps}")
+    for option, port in (("--web-port", args.web_port), ("--grpc-port", args.grpc_port)):
+        if not 1 <= port <= 65535:
+            raise UsageError(f"{option} must be from 1 to 65535, got {port}")
+    if args.serve_web and args.web_port == args.grpc_port:
+        raise UsageError(f"--web-port and --grpc-port must differ, got {args.web_port} for both")
     if args.no_record and args.record != DEFAULT_RECORD:
         raise UsageError("give either --record or --no-record, not both")
     if args.no_merge and args.method != DEFAULT_METHOD:
@@ -231,9 +236,6 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
 
 def live_viewer(args: argparse.Namespace) -> LiveViewer | None:
     """The :class:`~tomosim.recording.LiveViewer` the options ask for, or None."""
-    for option, port in (("--web-port", args.web_port), ("--grpc-port", args.grpc_port)):
-        if not 1 <= port <= 65535:
-            raise UsageError(f"{option} must be from 1 to 65535, got {port}")
     ports = {"grpc_port": args.grpc_port, "web_port": args.web_port}
     if args.spawn:
         return LiveViewer("spawn", **ports)

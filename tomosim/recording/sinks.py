@@ -18,6 +18,7 @@ rerun's failures into :class:`RecordingError` with one-line messages.
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import socket
@@ -95,6 +96,11 @@ class LiveViewer:
             port = getattr(self, name)
             if not 1 <= port <= 65535:
                 raise ValueError(f"{name} must be in 1..65535, got {port}")
+        if self.mode == "serve-web" and self.grpc_port == self.web_port:
+            raise ValueError(
+                f"grpc_port and web_port must differ (the web viewer and the run's stream "
+                f"each need a port), got {self.grpc_port} for both"
+            )
 
 
 def has_display() -> bool:
@@ -221,19 +227,42 @@ def check_port_free(live: LiveViewer, name: str) -> None:
     ``name`` (``grpc_port`` or ``web_port``), such as a viewer left running.
 
     rerun would otherwise log the failure and carry on, serving nothing where
-    the printed address points.
+    the printed address points. The check runs before the run starts; a
+    program that takes the port between it and rerun's first write is not
+    caught.
     """
     port = getattr(live, name)
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
-        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    option = PORT_OPTIONS[name]
+    probes = [(socket.AF_INET, "0.0.0.0")]
+    if socket.has_ipv6:  # a browser's "localhost" may be ::1
+        probes.append((socket.AF_INET6, "::"))
+    for family, address in probes:
         try:
-            probe.bind(("0.0.0.0", port))
-        except OSError as exc:
-            raise RecordingError(
-                f"cannot listen on port {port}: it is in use ({exc.strerror}), perhaps by a "
-                f"rerun viewer still running; stop that or choose another port with "
-                f"{PORT_OPTIONS[name]}"
-            ) from exc
+            probe = socket.socket(family, socket.SOCK_STREAM)
+        except OSError:  # no such family here
+            continue
+        with probe:
+            if sys.platform == "win32":  # there SO_REUSEADDR would share a port in use
+                exclusive = getattr(socket, "SO_EXCLUSIVEADDRUSE")  # noqa: B009 (Windows only)
+                probe.setsockopt(socket.SOL_SOCKET, exclusive, 1)
+            else:  # ignore connections of an earlier run still closing (TIME_WAIT)
+                probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            if family == socket.AF_INET6:
+                probe.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+            try:
+                probe.bind((address, port))
+            except OSError as exc:
+                if exc.errno == errno.EADDRNOTAVAIL and family == socket.AF_INET6:
+                    continue  # IPv6 switched off
+                if exc.errno == errno.EADDRINUSE:
+                    raise RecordingError(
+                        f"cannot listen on port {port}: it is in use, perhaps by a rerun "
+                        f"viewer still running; stop that or choose another port with {option}"
+                    ) from exc
+                raise RecordingError(
+                    f"cannot listen on port {port} ({exc.strerror or exc}); choose another "
+                    f"port with {option}"
+                ) from exc
 
 
 def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -> str:
@@ -248,7 +277,7 @@ def _live_sink(stream: rr.RecordingStream, live: LiveViewer, sinks: list[Any]) -
                 "--spawn needs a display to open the viewer's window (DISPLAY is not set); "
                 "use --serve-web and open the printed address in a browser elsewhere"
             )
-        check_port_free(live, "grpc_port")
+        # No port check: a viewer left open on the port is reused, as rerun intends.
         try:
             stream.spawn(port=live.grpc_port, connect=False)
         except Exception as exc:  # rerun raises its own error types when the viewer fails
