@@ -142,7 +142,7 @@ def command(action: object, *, name: str) -> tuple[float, float]:
     values = np.empty(0)
     try:
         given = np.asarray(action)
-        if not np.iscomplexobj(given):
+        if given.dtype.kind in "iuf":  # numbers, not text, booleans or complex numbers
             values = given.astype(np.float64).reshape(-1)
     except (TypeError, ValueError):  # text, dicts, ragged lists: refused below
         pass

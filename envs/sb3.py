@@ -41,7 +41,7 @@ class SB3VectorEnv(VecEnv):
         The environments behind it (its entries are their robots, in order).
     """
 
-    def __init__(self, venv: Any, envs: int = 1) -> None:
+    def __init__(self, venv: Any, envs: int) -> None:
         if not (isinstance(envs, int) and envs >= 1 and venv.num_envs % envs == 0):
             raise ValueError(
                 f"envs must be a whole number >= 1 dividing the {venv.num_envs} robot "
@@ -92,8 +92,9 @@ class SB3VectorEnv(VecEnv):
         return self._seeds
 
     def get_images(self) -> Sequence[NDArray[np.uint8] | None]:
-        """One frame, of the first environment (SuperSuit draws that one): the image
-        ``render()`` returns, and what ``VecVideoRecorder`` records."""
+        """One frame, of the first environment (SuperSuit draws that one), not one per
+        entry as ``VecEnv`` has it: the image ``render()`` returns (tiling one image is
+        that image), and what ``VecVideoRecorder`` records."""
         if self.render_mode != "rgb_array":
             raise ValueError(
                 f"images need render_mode='rgb_array' when the vector env is made, "

@@ -175,7 +175,8 @@ def test_bad_arguments_are_rejected() -> None:
         small_env(robots=0)
     env = small_env()
     env.reset(seed=0)
-    for action in (np.array([np.nan, 0.0]), "ab", {"lin": 1}, [1, [2, 3]], [1 + 2j, 0]):
+    bad = (np.array([np.nan, 0.0]), "ab", {"lin": 1}, [1, [2, 3]], [1 + 2j, 0], ["0.5", "1"])
+    for action in bad:
         with pytest.raises(ValueError, match="the action of robot_0 must be two finite"):
             env.step({"robot_0": action})
     with pytest.raises(TypeError, match="dict of agent name"):
