@@ -166,8 +166,8 @@ class Simulation:
             except NoRoomError as exc:  # its advice names sample_free_poses' own setting
                 raise NoRoomError(
                     f"could only place {exc.placed} of {robots} robots {separation:g} m apart "
-                    f"in {world.name!r}; use {max(exc.placed, 1)} robots or fewer, or a "
-                    "larger world",
+                    f"in {world.name!r}; use {max(exc.placed, 1)} "
+                    f"robot{'s' if exc.placed > 1 else ''} or fewer, or a larger world",
                     placed=exc.placed,
                     requested=robots,
                 ) from exc

@@ -125,12 +125,18 @@ def test_killed_sweep_resumes_without_repeating(tmp_path: Path) -> None:
 
 
 def test_existing_results_need_resume_and_the_same_settings(tmp_path: Path) -> None:
-    out = tmp_path / "rows.csv"
-    ResultsFile(out).append({name: "" for name in ROW_FIELDS} | {"key": "x", "steps_limit": 7})
+    # Rows of this sweep's settings: --resume goes on. Rows of another's: it could not,
+    # so neither run says to pass it.
+    ours, theirs = tmp_path / "ours.csv", tmp_path / "theirs.csv"
+    settings = {name: str(value) for name, value in four_episodes().settings().items()}
+    ResultsFile(ours).append({name: "" for name in ROW_FIELDS} | settings | {"key": "x"})
     with pytest.raises(ValueError, match="--resume"):
-        run_sweep(four_episodes(), out)
-    with pytest.raises(ValueError, match="steps_limit=7"):
-        run_sweep(four_episodes(), out, resume=True)
+        run_sweep(four_episodes(), ours)
+    other = {name: "" for name in ROW_FIELDS} | settings | {"key": "x", "steps_limit": 7}
+    ResultsFile(theirs).append(other)
+    for resume in (False, True):
+        with pytest.raises(ValueError, match="steps_limit=7, not 120; choose another --out"):
+            run_sweep(four_episodes(), theirs, resume=resume)
 
 
 def test_a_torn_last_line_is_dropped(tmp_path: Path) -> None:
@@ -303,6 +309,7 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
         (["--comm-range", "-2"], ["--comm-range must be a positive number"], 2),
         (["--line-of-sight"], ["--line-of-sight needs --comm-range"], 2),
         (["--policies", "foo"], ["unknown policy 'foo' in --policies", "utility"], 2),
+        (["--methods", "foo"], ["unknown merging method 'foo' in --methods", "none"], 2),
     ],
 )
 def test_sweep_errors_are_one_line(

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid
 from tomosim.commands import CommandError
+from tomosim.commands.explore_report import settings_line
 from tomosim.recording import RecordedRun
 from tomosim.recording.paths import AGREEMENT, MERGED, MERGED_FRAME, TRUTH, pair_colour
 
@@ -170,13 +171,9 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
     ax.grid(alpha=0.3)
     s = report.get("settings") or {}
     if s:
-        merging = (
-            f"merging every {s.get('merge_interval')} steps" if s.get("merge") else "no merging"
-        )
         coverage = report["coverage"]
-        policy = f"{s['policy']} policy, " if s.get("policy") else ""
         figure.suptitle(
-            f"{s.get('world')}: {s.get('robots')} robots, {policy}{merging}, final coverage "
+            f"{settings_line(s)}; final coverage "
             f"{'-' if coverage is None else f'{coverage:.3f}'} after {report['steps']} steps",
             fontsize=11,
         )

@@ -148,6 +148,12 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
         raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
     if args.line_of_sight and args.comm_range is None:
         raise UsageError("--line-of-sight needs --comm-range")
+    unknown = [m for m in args.methods if m != NO_MERGE and m not in team_methods()]
+    if unknown:
+        choices = ", ".join([*team_methods(), NO_MERGE])
+        raise UsageError(
+            f"unknown merging method {unknown[0]!r} in --methods; choose from: {choices}"
+        )
     strange = [policy for policy in args.policies if policy not in chooser_names()]
     if strange:
         raise UsageError(

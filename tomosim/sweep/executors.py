@@ -126,7 +126,9 @@ def run_sweep(
     try:
         with results.locked():
             if had_rows and not resume:
-                results.check_columns()  # another file: --resume would not help
+                # Another kind of file, or another sweep's: --resume would not help.
+                results.check_columns()
+                _done_keys(results, plan.settings())
                 raise ValueError(
                     f"{results.path} already holds results; pass --resume or choose --out"
                 )

@@ -107,11 +107,14 @@ class SweepPlan:
         unknown = [m for m in self.methods if m != NO_MERGE and m not in team_methods()]
         if unknown:
             choices = ", ".join([*team_methods(), NO_MERGE])
-            raise ValueError(f"unknown merging method(s) {unknown}; choose from: {choices}")
+            raise ValueError(
+                f"unknown merging method {unknown[0]!r} in methods; choose from: {choices}"
+            )
         strange = [p for p in self.policies if p not in chooser_names()]
         if strange:
             raise ValueError(
-                f"unknown exploration policy(ies) {strange}; choose from {list(chooser_names())}"
+                f"unknown exploration policy {strange[0]!r} in policies; choose from: "
+                f"{', '.join(chooser_names())}"
             )
         CommsConfig(self.comm_range, self.line_of_sight)  # validates the range
         for name in ("robots", "seeds", "policies", "methods", "worlds"):
