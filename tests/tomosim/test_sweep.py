@@ -308,8 +308,8 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
         (["--steps", "0"], ["--steps must be at least 1, got 0"], 2),
         (["--comm-range", "-2"], ["--comm-range must be a positive number"], 2),
         (["--line-of-sight"], ["--line-of-sight needs --comm-range"], 2),
-        (["--policies", "foo"], ["unknown policy 'foo' in --policies", "utility"], 2),
-        (["--methods", "foo"], ["unknown merging method 'foo' in --methods", "none"], 2),
+        (["--policies", "foo"], ["unknown exploration policy 'foo'", "utility"], 2),
+        (["--methods", "foo"], ["unknown merging method 'foo'", "none"], 2),
     ],
 )
 def test_sweep_errors_are_one_line(

@@ -174,6 +174,20 @@ def add_live_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def check_episode_options(args: argparse.Namespace) -> None:
+    """The options ``explore`` and ``sweep`` share: :class:`UsageError` naming a bad one."""
+    if args.steps < 1:
+        raise UsageError(f"--steps must be at least 1, got {args.steps}")
+    if args.merge_interval < 1:
+        raise UsageError(f"--merge-interval must be at least 1 step, got {args.merge_interval}")
+    if not 0.0 < args.coverage_target <= 1.0:
+        raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
+    if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
+        raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
+    if args.line_of_sight and args.comm_range is None:
+        raise UsageError("--line-of-sight needs --comm-range")
+
+
 def build_config(args: argparse.Namespace) -> EpisodeConfig:
     """The episode the command line asks for; :class:`UsageError` when it cannot be."""
     if not 1 <= args.robots <= MAX_ROBOTS:
@@ -182,8 +196,7 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
             f"estimates every pair of maps: {MAX_ROBOTS * (MAX_ROBOTS - 1) // 2} pairs at "
             f"{MAX_ROBOTS} robots)"
         )
-    if args.steps < 1:
-        raise UsageError(f"--steps must be at least 1, got {args.steps}")
+    check_episode_options(args)
     for option, port in (("--web-port", args.web_port), ("--grpc-port", args.grpc_port)):
         if not 1 <= port <= 65535:
             raise UsageError(f"{option} must be from 1 to 65535, got {port}")
@@ -193,20 +206,12 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError("give either --record or --no-record, not both")
     if args.no_merge and args.method != DEFAULT_METHOD:
         raise UsageError(f"--no-merge explores without merging; drop --method {args.method}")
-    if args.merge_interval < 1:
-        raise UsageError(f"--merge-interval must be at least 1 step, got {args.merge_interval}")
     if args.seed < 0:
         raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
-    if not 0.0 < args.coverage_target <= 1.0:
-        raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
     try:
         check_team_method(args.method)
     except ValueError as error:
         raise UsageError(str(error)) from None
-    if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
-        raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
-    if args.line_of_sight and args.comm_range is None:
-        raise UsageError("--line-of-sight needs --comm-range")
     if args.policy not in chooser_names():
         choices = ", ".join(chooser_names())
         raise UsageError(f"unknown policy {args.policy!r}; choose one of: {choices}")

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
-from tomosim.commands.explore import MAX_ROBOTS
+from tomosim.commands.explore import MAX_ROBOTS, check_episode_options
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
@@ -138,28 +138,7 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
     ):
         sides = " ".join(map(str, args.world_size))
         raise UsageError(f"--world-size must be two positive numbers of metres, got {sides}")
-    if args.steps < 1:
-        raise UsageError(f"--steps must be at least 1, got {args.steps}")
-    if args.merge_interval < 1:
-        raise UsageError(f"--merge-interval must be at least 1 step, got {args.merge_interval}")
-    if not 0.0 < args.coverage_target <= 1.0:
-        raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
-    if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
-        raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
-    if args.line_of_sight and args.comm_range is None:
-        raise UsageError("--line-of-sight needs --comm-range")
-    unknown = [m for m in args.methods if m != NO_MERGE and m not in team_methods()]
-    if unknown:
-        choices = ", ".join([*team_methods(), NO_MERGE])
-        raise UsageError(
-            f"unknown merging method {unknown[0]!r} in --methods; choose from: {choices}"
-        )
-    strange = [policy for policy in args.policies if policy not in chooser_names()]
-    if strange:
-        raise UsageError(
-            f"unknown policy {strange[0]!r} in --policies; choose from: "
-            f"{', '.join(chooser_names())}"
-        )
+    check_episode_options(args)
     if args.record_dir is not None and args.record_dir.exists() and not args.record_dir.is_dir():
         raise UsageError(f"--record-dir {args.record_dir} is a file; give a folder")
     try:

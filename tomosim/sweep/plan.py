@@ -107,13 +107,11 @@ class SweepPlan:
         unknown = [m for m in self.methods if m != NO_MERGE and m not in team_methods()]
         if unknown:
             choices = ", ".join([*team_methods(), NO_MERGE])
-            raise ValueError(
-                f"unknown merging method {unknown[0]!r} in methods; choose from: {choices}"
-            )
+            raise ValueError(f"unknown merging method {unknown[0]!r}; choose from: {choices}")
         strange = [p for p in self.policies if p not in chooser_names()]
         if strange:
             raise ValueError(
-                f"unknown exploration policy {strange[0]!r} in policies; choose from: "
+                f"unknown exploration policy {strange[0]!r}; choose from: "
                 f"{', '.join(chooser_names())}"
             )
         CommsConfig(self.comm_range, self.line_of_sight)  # validates the range
