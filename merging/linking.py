@@ -196,15 +196,15 @@ class MergeAllResult:
             members = ", ".join(map(str, self.linking.group(self.reference)))
             lines.insert(
                 0,
-                f"grid 0 links to no other grid; reference is grid {self.reference}, "
-                f"the lowest index of the largest linked group (grids {members})",
+                f"map 0 links to no other map; reference is map {self.reference}, "
+                f"the lowest index of the largest linked group (maps {members})",
             )
         for k in self.unlinked:
             group = self.linking.group(k)
             if len(group) > 1 and k == group[0]:
                 others = ", ".join(str(g) for g in group[1:])
                 lines.append(
-                    f"grid {k} links to grid(s) {others} but not to grid {self.reference}'s group"
+                    f"map {k} links to map(s) {others} but not to map {self.reference}'s group"
                 )
         return tuple(lines)
 
@@ -440,7 +440,7 @@ def consistent_pairs(
         i, j = drop
         notes.append(
             f"pair {i}-{j} (accepted, confidence {kept[drop].confidence:.2f}) dropped: it "
-            f"disagrees by {off:.1f} cells RMS with the chain through grid {via}"
+            f"disagrees by {off:.1f} cells RMS with the chain through map {via}"
         )
         del kept[drop]
 
@@ -569,12 +569,12 @@ def _unlinked_notes(
     for (k,) in (g for g in groups if len(g) == 1):
         own = [(key, r) for key, r in pairs.items() if k in key]
         if not own:
-            lines.append(f"grid {k} has no estimate with another grid")
+            lines.append(f"map {k} has no estimate with another map")
             continue
         (i, j), best = max(own, key=lambda item: item[1].confidence)
         why = f": {best.reason}" if best.reason else ""
         lines.append(
-            f"grid {k} not linked: no accepted pair (best {i}-{j}, "
+            f"map {k} not linked: no accepted pair (best {i}-{j}, "
             f"confidence {best.confidence:.2f}{why})"
         )
     return lines

@@ -99,7 +99,7 @@ def test_merge_all_reports_an_unlinked_grid() -> None:
     assert result.transforms[3] is None
     assert result.fused_transform(3) is None
     assert any(
-        note.startswith("grid 3 not linked") and "1-3" in note and "0.40" in note
+        note.startswith("map 3 not linked") and "1-3" in note and "0.40" in note
         for note in result.notes
     )
     assert result.fused.cells.shape[0] * result.fused.cells.shape[1] > 0
@@ -112,7 +112,7 @@ def test_merge_all_uses_the_largest_group_when_grid_0_links_to_nothing() -> None
     assert result.reference == 1
     assert result.unlinked == (0,)
     np.testing.assert_allclose(result.transforms[3], truth(1, 3), atol=EXACT)
-    assert "reference is grid 1" in result.notes[0]
+    assert "reference is map 1" in result.notes[0]
 
 
 def test_merge_all_reports_a_group_cut_off_from_the_reference() -> None:
@@ -121,7 +121,7 @@ def test_merge_all_reports_a_group_cut_off_from_the_reference() -> None:
     result = link_table(grids, table)
     assert result.reference == 0
     assert result.unlinked == (2, 3)
-    assert any("grid 2 links to grid(s) 3" in note for note in result.notes)
+    assert any("map 2 links to map(s) 3" in note for note in result.notes)
 
 
 def test_merge_all_keeps_the_reference_georeference() -> None:

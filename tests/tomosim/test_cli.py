@@ -303,7 +303,7 @@ def test_partial_merge_writes_the_linked_maps(
     report = json.loads(out)
     assert report["unlinked"] == [1] and report["written"] is True
     assert [entry["linked"] for entry in report["maps"]] == [False, False]
-    assert any(note.startswith("grid 1 not linked") for note in report["notes"])
+    assert any(note.startswith("map 1 not linked") for note in report["notes"])
     np.testing.assert_array_equal(load_map(output).data, load_map(first).data)
     assert err.count("\n") == 1 and "empty.yaml" in err and "warning" in err
 
