@@ -304,6 +304,7 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
         (["--worlds", "foo"], ["--worlds must be seeds or map_server .yaml files", "'foo'"], 2),
         (["--seeds", "-1"], ["--seeds must be non-negative integers, got -1"], 2),
         (["--world-size", "0", "9"], ["--world-size must be two positive numbers"], 2),
+        (["--world-size", "3", "3"], ["world_size 3 x 3 m: width 3.0 m is too small"], 2),
         (["--record-dir", __file__], ["--record-dir", "is a file; give a folder"], 2),
         (["--steps", "0"], ["--steps must be at least 1, got 0"], 2),
         (["--comm-range", "-2"], ["--comm-range must be a positive number"], 2),

@@ -14,6 +14,7 @@ import numpy as np
 from tomosim.episode import EpisodeConfig
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.team import CommsConfig, team_methods
+from tomosim.worlds import FloorplanConfig
 
 NO_MERGE = "none"
 """Method name standing for an episode with merging switched off."""
@@ -104,6 +105,12 @@ class SweepPlan:
             )
         ):
             raise ValueError(f"world_size must be two positive metres, got {self.world_size!r}")
+        if self.world_size is not None:
+            width, height = self.world_size
+            try:  # a floor plan's own limits, checked before any episode runs
+                FloorplanConfig(width=float(width), height=float(height))
+            except ValueError as exc:
+                raise ValueError(f"world_size {width:g} x {height:g} m: {exc}") from None
         unknown = [m for m in self.methods if m != NO_MERGE and m not in team_methods()]
         if unknown:
             choices = ", ".join([*team_methods(), NO_MERGE])
