@@ -11,7 +11,7 @@ Each call of :meth:`FrontierPolicy.act` returns one command. Every
    :mod:`~tomosim.exploration.targets`);
 4. lets its *target chooser* pick a cell, from the candidates and what it
    knows of its teammates (by default the nearest cluster, less a bonus for
-   its size; :data:`~tomosim.exploration.targets.CHOOSERS`), and follows the
+   its size; :data:`~tomosim.exploration.choosers.CHOOSERS`), and follows the
    path there (:mod:`~tomosim.exploration.controller`).
 
 The target is kept until it is reached or stops being a frontier, so that
@@ -40,10 +40,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
+from tomosim.exploration.choosers import make_chooser
 from tomosim.exploration.controller import ControllerConfig, PathFollower
 from tomosim.exploration.frontiers import frontier_clusters
 from tomosim.exploration.planning import PlannerConfig, PlanningGrid, Wavefront, planning_grid
-from tomosim.exploration.targets import Candidate, TargetChooser, Teammate, make_chooser
+from tomosim.exploration.targets import Candidate, TargetChooser, Teammate
 from tomosim.lidar import Scan
 
 RECOVERY_COMMAND = (-0.3, 0.6)
@@ -140,7 +141,7 @@ class FrontierPolicy:
         Defaults as documented there.
     chooser : TargetChooser or str
         The target chooser, or its name in
-        :data:`~tomosim.exploration.targets.CHOOSERS` (default ``"nearest"``).
+        :data:`~tomosim.exploration.choosers.CHOOSERS` (default ``"nearest"``).
     """
 
     __slots__ = (

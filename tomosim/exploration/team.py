@@ -24,8 +24,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from tomosim.exploration.choosers import make_chooser
 from tomosim.exploration.policy import ExplorationConfig, FrontierPolicy
-from tomosim.exploration.targets import PathCosts, Teammate, make_chooser
+from tomosim.exploration.targets import PathCosts, Teammate
 
 if TYPE_CHECKING:
     from tomosim.team.session import TeamSession
@@ -58,7 +59,7 @@ class TeamExplorer:
     robots : int
         Team size.
     policy : str
-        The target chooser of every robot (:func:`~tomosim.exploration.targets.chooser_names`).
+        The target chooser of every robot (:func:`~tomosim.exploration.choosers.chooser_names`).
     config : ExplorationConfig, optional
         Planning, following and choosing parameters, shared by all robots.
     """
