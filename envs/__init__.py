@@ -5,7 +5,7 @@
   docstring);
 * :mod:`envs.vector`: K of them at once (SuperSuit's vector envs, Gymnasium's
   ``AsyncVectorEnv``), and :mod:`envs.sb3`, a Stable-Baselines3 ``VecEnv``;
-* :mod:`envs.baselines`: random, constant and frontier agents to compare a
+* :mod:`envs.scripted_agents`: random, constant and frontier agents to compare a
   learner with.
 
 Importing this package registers the Gymnasium single-agent view

@@ -9,16 +9,15 @@ environments.
 """
 
 from merging.api import available_methods, check_method, estimate_transform, register_method
-from merging.fusion import FusedMap, fuse, merge
+from merging.evaluation.metrics import acceptance_index, matching_index, transform_error
 from merging.grid import (
     FREE_THRESHOLD,
     OCCUPIED_THRESHOLD,
     OccupancyGrid,
     validate_cells,
 )
-from merging.linking import Linking, MergeAllResult, link_maps, merge_all
+from merging.linking import FusedMap, Linking, MergeAllResult, fuse, link_maps, merge, merge_all
 from merging.mapio import load_map, save_map
-from merging.metrics import acceptance_index, matching_index, transform_error
 from merging.result import Hypothesis, MergeResult
 from merging.transforms import cells_to_metres, matrix_to_pose, rigid_matrix
 

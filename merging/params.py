@@ -74,7 +74,7 @@ def _check_fields(settings: Any, *, positive: tuple[str, ...], fractions: tuple[
 
 @dataclass(frozen=True, slots=True)
 class RotationParams:
-    """Rotation hypotheses from angular spectra (:mod:`merging.angular`).
+    """Rotation hypotheses from angular spectra (:mod:`merging.tomographic.angular`).
 
     Attributes
     ----------
@@ -111,7 +111,9 @@ class RotationParams:
 
 @dataclass(frozen=True, slots=True)
 class TranslationParams:
-    """Translation hypotheses from the pooled projection correlation (:mod:`merging.correlate`).
+    """Translation hypotheses from the pooled projection correlation.
+
+    Used by :mod:`merging.tomographic.correlate`.
 
     Attributes
     ----------
@@ -143,7 +145,7 @@ class TranslationParams:
 
 @dataclass(frozen=True, slots=True)
 class VerifyParams:
-    """Carrying each map's walls into the other (:mod:`merging.verify`).
+    """Carrying each map's walls into the other (:mod:`merging.evidence.verify`).
 
     Attributes
     ----------
@@ -198,7 +200,9 @@ class VerifyParams:
 
 @dataclass(frozen=True, slots=True)
 class ConfidenceParams:
-    """The five factors of :func:`merging.verify.confidence`, the mirror check, the threshold.
+    """The five factors of the confidence, the mirror check, the threshold.
+
+    The factors are those of :func:`merging.evidence.verify.confidence`.
 
     The constants were set on 200 window pairs of four real maps and 144
     pairs of robots' maps from six simulated episodes, so that no merge more
@@ -245,10 +249,10 @@ class ConfidenceParams:
         For the default method: the best transform must explain this much
         more than map 2's mirror image laid on the same overlap, as a
         fraction of its net agreeing wall cells there
-        (:func:`merging.mirror.mirror_share`, one minus that share), for the
+        (:func:`merging.evidence.mirror.mirror_share`, one minus that share), for the
         mirror factor to pass one half; evidence that looks the same in a
         mirror cannot tell a place from its mirror twin in a mirror-symmetric
-        building (:mod:`merging.mirror`). The mirrored placement competes
+        building (:mod:`merging.evidence.mirror`). The mirrored placement competes
         like the best different one, so it is held to the same margin as
         ``distinct_margin`` (and width), not to a value of its own. Looked at
         while choosing the counting (window pairs of four maps, seeds 7 and 5
@@ -260,7 +264,7 @@ class ConfidenceParams:
         ``scripts/bench_real_maps.py`` and the tests), 83-97 %.
     strength_scale : float
         Constraint strength (matching cells per cell² of motion along the
-        weakest direction, :func:`merging.refine.constraint_strength`) at which
+        weakest direction, :func:`merging.evidence.refine.constraint_strength`) at which
         that factor reaches 1 - 1/e: an overlap of one short wall scores about
         3, a room corner about 30.
     shared_space_scale : float
@@ -315,14 +319,14 @@ class RobustParams:
     space, so the fit factor of :class:`ConfidenceParams` refuses it. Such a
     placement is vouched for instead when *all* of these hold (each a
     logistic factor passing one half at its threshold; the confidence is the
-    weakest of them, :func:`merging.robust.robust_confidence`, so acceptance
+    weakest of them, :func:`merging.evidence.robust.robust_confidence`, so acceptance
     at ``ConfidenceParams.accept`` asks each measure to pass its threshold
     by 0.4 of its narrow width):
 
     Attributes
     ----------
     margin : float
-        Ranking score (:attr:`merging.verify.Verification.score`) by which the
+        Ranking score (:attr:`merging.evidence.verify.Verification.score`) by which the
         placement beats the best *different* one, one farther than
         ``distinct_cells``.
     distinct_cells : float
@@ -414,13 +418,15 @@ class RobustParams:
 
 @dataclass(frozen=True, slots=True)
 class GaussNewtonParams:
-    """The Gauss-Newton fit of map 2's walls to map 1's blurred walls (:mod:`merging.refine`).
+    """The Gauss-Newton fit of map 2's walls to map 1's blurred walls.
+
+    Used by :mod:`merging.evidence.refine`.
 
     Attributes
     ----------
     newton_factor : float
         Step multiplier turning the half-way Gauss-Newton step into Newton's
-        step (see :mod:`merging.refine`).
+        step (see :mod:`merging.evidence.refine`).
     backtracks : int
         Times a step is halved when it lowers the objective, before giving up.
     damping : float
@@ -557,10 +563,10 @@ class TomographicParams:
     stages : tuple of RefineStage
         The refinement schedule, walked in order.
     from_start : RefineStage
-        How :func:`merging.tomographic.refine_from` refines a given transform.
+        How :func:`merging.tomographic.search.refine_from` refines a given transform.
     mirror_stages : tuple of RefineStage
         The refinement schedule of the search for the mirror image of the
-        evidence (:mod:`merging.mirror`).
+        evidence (:mod:`merging.evidence.mirror`).
     correlation_refined : int
         Of the candidates admitted to the first stage, how many are taken by
         correlation strength rather than by verification: before refinement
@@ -570,7 +576,7 @@ class TomographicParams:
     widest_per_block : float
         Widest field of the first refinement stage, in blocks of the coarse
         correlation grid: its hypotheses are off by up to half a block plus
-        their rotation error (see :func:`merging.tomographic.coarse_to_fine`).
+        their rotation error (see :func:`merging.tomographic.search.coarse_to_fine`).
         Below 6 blocks' worth of map (800 cells) no wider field is added.
     keep_refined_margin : float
         Score by which a refined transform may verify worse than its start

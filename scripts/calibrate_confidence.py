@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 
 import merging
-from merging.metrics import transform_error
-from merging.pairs import cut_window_pairs
+from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
+from merging.evidence.verify import ACCEPT_CONFIDENCE
 from merging.transforms import matrix_to_pose, wrap_angle
-from merging.verify import ACCEPT_CONFIDENCE
 from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 from tomosim.data import maps_dir, maps_missing
 from tomosim.episode import EpisodeConfig, load_world

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 import merging
-from merging.metrics import transform_error
-from merging.pairs import cut_window_pairs
+from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
 from tomosim.commands.script_args import non_negative_int, run_script
 from tomosim.data import maps_dir, maps_missing
 from tomosim.worlds import generate_floorplan

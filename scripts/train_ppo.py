@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from envs import multi_robot_exploration_v0 as exploration
-from envs.baselines import ConstantBaseline, FrontierBaseline, RandomBaseline
+from envs.scripted_agents import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.vector import RL_INSTALL, make_sb3_vector_env
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
 

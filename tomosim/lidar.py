@@ -12,8 +12,8 @@ Scan coding (every consumer relies on it):
 
 The robot does not see itself; other robots are circles and are seen. A
 scan is cast by the compiled :func:`tomosim.kernels.raycast.cast_scan`, the
-algorithm of :func:`tomosim.raycast.cast_segments` and
-:func:`tomosim.raycast.cast_circles` in one loop; the tests check it against
+algorithm of :func:`tomosim.ray_geometry.cast_segments` and
+:func:`tomosim.ray_geometry.cast_circles` in one loop; the tests check it against
 those and against pymunk's segment queries (:mod:`tomosim.lidar_oracle`).
 """
 

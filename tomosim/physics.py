@@ -23,7 +23,7 @@ import numpy as np
 import pymunk
 from numpy.typing import ArrayLike, NDArray
 
-from tomosim.raycast import distance_to_segments
+from tomosim.ray_geometry import distance_to_segments
 from tomosim.worlds.world import as_segments
 
 MAX_SUBSTEP_TRAVEL = 0.25

@@ -3,7 +3,7 @@
 A world's episodes are every combination of team size, policy, merge method
 and seed, less those whose outcome another episode already gives: a robot
 that is linked to nobody explores alone, and every policy then chooses its
-targets as ``nearest`` does (``tests/tomosim/test_coordination.py``), so
+targets as ``nearest`` does (``tests/tomosim/exploration/test_coordination.py``), so
 
 * a team of one runs with merging off only (its time is every method's), and
 * merging off runs with one policy only (its time is every policy's),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from envs import multi_robot_exploration_v0
-from envs.baselines import FrontierBaseline
+from envs.scripted_agents import FrontierBaseline
 from tomosim.exploration import DEFAULT_POLICY, TeamExplorer
 
 COVERAGE_GAIN = 0.2

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from envs import multi_robot_exploration_v0 as exploration
-from envs.baselines import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.observations import CHANNEL_ON
+from envs.scripted_agents import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.vector import RL_INSTALL
 
 SMALL = {"world_size": (12.0, 9.0), "robots": 2}

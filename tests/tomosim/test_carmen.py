@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy import ndimage, signal
 
+from merging.evaluation.metrics import acceptance_index, matching_index
 from merging.grid import OccupancyGrid
 from merging.mapio import load_map
-from merging.metrics import acceptance_index, matching_index
 from tomosim.carmen import CARMEN_MAX_RANGE, read_carmen
 from tomosim.data import datasets_dir, maps_dir
 from tomosim.mapping import LogOddsMap, MappingConfig

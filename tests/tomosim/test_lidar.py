@@ -8,7 +8,7 @@ import pytest
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.lidar_oracle import cast_pymunk
 from tomosim.physics import Physics, PhysicsConfig, build_space
-from tomosim.raycast import cast_segments
+from tomosim.ray_geometry import cast_segments
 from tomosim.worlds import generate_floorplan
 
 ORACLE_TOLERANCE = 1e-9

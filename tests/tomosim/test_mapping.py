@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from merging.evaluation.metrics import acceptance_index
 from merging.grid import OccupancyGrid
-from merging.metrics import acceptance_index
 from tomosim.lidar import Lidar, LidarConfig, Scan
 from tomosim.mapping import LogOddsMap, MappingConfig, integrate_rays
 from tomosim.worlds import world_from_map

@@ -3,7 +3,7 @@
 :func:`run_episode` builds everything from an :class:`EpisodeConfig` (the
 world, a :class:`~tomosim.team.TeamSession`, a
 :class:`~tomosim.exploration.TeamExplorer` running the configured policy,
-an :class:`~tomosim.episode.tracking.ExplorationTracker` and, when asked, a
+an :class:`~tomosim.episode.exploration_tracker.ExplorationTracker` and, when asked, a
 recording) and runs until the first of
 
 * the team knows ``coverage_target`` of the world's free space,
@@ -25,8 +25,8 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from tomosim.episode.config import EpisodeConfig, load_world
-from tomosim.episode.metrics import EpisodeMetrics, MergeRound, odometry_drift
-from tomosim.episode.tracking import ExplorationTracker
+from tomosim.episode.exploration_tracker import ExplorationTracker
+from tomosim.episode.outcome import EpisodeMetrics, MergeRound, odometry_drift
 from tomosim.exploration import TeamExplorer
 from tomosim.team.session import TeamConfig, TeamSession
 

@@ -1,10 +1,10 @@
 """One lidar scan against wall segments and circular robots, compiled.
 
-The algorithm is that of :func:`tomosim.raycast.cast_segments` (an angular
+The algorithm is that of :func:`tomosim.ray_geometry.cast_segments` (an angular
 sweep: each segment is intersected only with the beams whose directions lie
 between those of its end points) followed by
-:func:`tomosim.raycast.cast_circles`, with the bounding-box culling of
-:func:`tomosim.raycast.cull_segments` folded in. Those numpy functions are
+:func:`tomosim.ray_geometry.cast_circles`, with the bounding-box culling of
+:func:`tomosim.ray_geometry.cull_segments` folded in. Those numpy functions are
 its specification and its test oracle; the tolerances are theirs.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tomosim.kernels.jit import kernel
-from tomosim.raycast import ANGLE_TOLERANCE, COLLINEAR_TOLERANCE
+from tomosim.ray_geometry import ANGLE_TOLERANCE, COLLINEAR_TOLERANCE
 
 TWO_PI = 2.0 * math.pi
 

@@ -14,7 +14,7 @@ A merge round
 3. links the maps through the confirmed pairs (:func:`merging.link_maps`):
    a consistent spanning forest, each robot's frame placed in its group's
    root robot's frame;
-4. fuses the main group (:func:`merging.linking.fuse_group`).
+4. fuses the main group (:func:`merging.linking.forest.fuse_group`).
 
 A round sees the grids alone, never the truth: scoring it against the true
 start poses is :func:`tomosim.team.quality.score_round`'s job.
@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from merging import check_method, estimate_transform, link_maps
 from merging.api import DEFAULT_METHOD
 from merging.grid import OccupancyGrid
-from merging.linking import Linking, fuse_group
+from merging.linking.forest import Linking, fuse_group
 from merging.result import MergeResult
 from tomosim.frames import frame_errors
 from tomosim.worlds.world import RngLike, as_generator

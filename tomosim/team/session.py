@@ -37,11 +37,11 @@ from merging.result import MergeResult
 from tomosim.simulation import Simulation, SimulationConfig
 from tomosim.team.comms import CommsConfig, in_range, out_of_reach, reach_groups
 from tomosim.team.coverage import TeamCoverage
+from tomosim.team.link_tracking import TrackingEstimator
 from tomosim.team.merger import PairEstimator, TeamMerge, TeamMerger
 from tomosim.team.oracle import ORACLE, check_team_method, oracle_estimator
 from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
-from tomosim.team.tracking import TrackingEstimator
 from tomosim.worlds.world import RngLike, World, as_generator
 
 
@@ -66,7 +66,7 @@ class TeamConfig:
     tracking : bool
         With the default (tomographic) method: track linked pairs' transforms
         between rounds and search globally only when needed
-        (:class:`~tomosim.team.tracking.TrackingEstimator`); other methods
+        (:class:`~tomosim.team.link_tracking.TrackingEstimator`); other methods
         always search every pair.
     merge_worker : bool
         Run the tracker's global searches in a worker process (the results,

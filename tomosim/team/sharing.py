@@ -10,7 +10,7 @@ accepted estimates only), robot ``i``'s *best map* is, in its own map frame,
 
 Where the robot's own grid knows a cell, its own value is kept; teammates fill
 in only the cells it has not observed (where several teammates know a cell,
-the fusion rule of :mod:`merging.fusion` combines them: known beats unknown,
+the fusion rule of :mod:`merging.linking.fusion` combines them: known beats unknown,
 occupied beats free). Own knowledge comes first because it is in the robot's
 own frame exactly, while teammates' grids arrive through estimated transforms
 and odometry drift of a few decimetres, and because teammates map each other:

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from merging.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from tomosim.worlds.config import FloorplanConfig
+from tomosim.worlds.floorplan_config import FloorplanConfig
 from tomosim.worlds.from_map import world_from_grid
 from tomosim.worlds.layout import Layout, draw_layout
 from tomosim.worlds.paint import box_mask, paint_rectangle
