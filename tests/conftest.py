@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.support import MAPS_ENV, real_maps_dir
+from tests.support import maps_absent_reason, real_maps_dir
 
 
 @pytest.fixture(scope="session")
@@ -14,5 +14,5 @@ def maps_folder() -> Path:
     """The real maps; skips the test with a reason when they are absent."""
     folder = real_maps_dir()
     if folder is None:
-        pytest.skip(f"real maps not found; set {MAPS_ENV} or place them at ../shared/maps")
+        pytest.skip(maps_absent_reason())
     return folder

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import importlib.util
-import os
 import sys
 from pathlib import Path
 from types import ModuleType
 
+from merging.catalog import describe_folders
+from tomosim.data import maps_dir
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
-MAPS_ENV = "TOMOSIM_MAPS"
-"""Environment variable naming the folder of real maps; default ``<repo root>/../shared/maps``."""
 
 
 def load_script(name: str) -> ModuleType:
@@ -25,7 +25,10 @@ def load_script(name: str) -> ModuleType:
 
 
 def real_maps_dir() -> Path | None:
-    """The folder of real maps, or None when it is absent."""
-    configured = os.environ.get(MAPS_ENV)
-    folder = Path(configured) if configured else REPO_ROOT.parent / "shared" / "maps"
-    return folder if folder.is_dir() else None
+    """The folder of real maps (the first of the maps path that exists), or None."""
+    return maps_dir()
+
+
+def maps_absent_reason() -> str:
+    """Why tests of real maps are skipped: the folders looked in."""
+    return f"real maps not found in {describe_folders()}"

@@ -8,7 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from tests.support import MAPS_ENV, REPO_ROOT
+from merging.catalog import MAPS_ENV
+from tests.support import REPO_ROOT
 
 SCRIPT = REPO_ROOT / "scripts" / "merger_answers.py"
 

@@ -29,7 +29,14 @@ from pathlib import Path
 from PIL import Image
 
 from merging.api import DEFAULT_METHOD
-from tomosim.commands import CommandError, UsageError, check_writable, one_line
+from tomosim.commands import (
+    CommandError,
+    UsageError,
+    check_world,
+    check_writable,
+    one_line,
+    world_spec,
+)
 from tomosim.commands.explore_report import render_summary
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
@@ -65,8 +72,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world",
         default=str(DEFAULT_WORLD_SEED),
-        help="a generated floor plan's seed, or a map_server YAML file "
-        f"(default: floor plan {DEFAULT_WORLD_SEED}, 30 m x 20 m)",
+        help="a generated floor plan's seed, a map's name ('tomosim maps' lists them) or a "
+        f"map_server YAML file (default: floor plan {DEFAULT_WORLD_SEED}, 30 m x 20 m)",
     )
     parser.add_argument(
         "--robots",
@@ -217,12 +224,7 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"unknown policy {args.policy!r}; choose one of: {choices}")
     if args.record.suffix != ".rrd":
         raise UsageError(f"--record must name an .rrd file, got {args.record}")
-    world: int | Path = int(args.world) if args.world.strip().isdigit() else Path(args.world)
-    if isinstance(world, Path) and world.suffix not in (".yaml", ".yml"):
-        raise UsageError(
-            f"--world must be a seed (a whole number >= 0) or a map_server .yaml file, "
-            f"got {args.world!r}"
-        )
+    world = world_spec(args.world, option="--world")
     return EpisodeConfig(
         world=world,
         robots=args.robots,
@@ -254,11 +256,7 @@ def live_viewer(args: argparse.Namespace) -> LiveViewer | None:
 def run(args: argparse.Namespace) -> int:
     """Run the episode and print its summary; returns the exit status."""
     config = build_config(args)
-    if isinstance(config.world, Path) and not config.world.is_file():
-        raise CommandError(
-            f"--world {config.world}: no such map file; give a map_server .yaml file or a "
-            "floor-plan seed"
-        )
+    check_world(config.world, option="--world")
     live = live_viewer(args)
     if config.record is not None:
         check_writable(config.record, option="--record")

@@ -22,7 +22,14 @@ import os
 from pathlib import Path
 from typing import Any
 
-from tomosim.commands import CommandError, UsageError, check_writable, one_line
+from tomosim.commands import (
+    CommandError,
+    UsageError,
+    check_world,
+    check_writable,
+    one_line,
+    world_spec,
+)
 from tomosim.commands.explore import MAX_ROBOTS, check_episode_options
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
@@ -43,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     methods = ", ".join([*team_methods(), NO_MERGE])
     parser.add_argument(
         "--worlds", nargs="+", default=list(plan.worlds), metavar="WORLD",
-        help="generated floor-plan seeds and/or map_server YAML files "
+        help="generated floor-plan seeds, map names ('tomosim maps') and/or map_server YAML files "
         f"(default: {' '.join(plan.worlds)})",
     )  # fmt: skip
     parser.add_argument(
@@ -128,8 +135,7 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
             f"{MAX_ROBOTS} robots)"
         )
     for world in args.worlds:
-        if not (world.strip().isdigit() or Path(world).suffix in (".yaml", ".yml")):
-            raise UsageError(f"--worlds must be seeds or map_server .yaml files, got {world!r}")
+        world_spec(world, option="--worlds")
     negative = [seed for seed in args.seeds if seed < 0]
     if negative:
         raise UsageError(f"--seeds must be non-negative integers, got {negative[0]}")
@@ -167,6 +173,8 @@ def run(args: argparse.Namespace) -> int:
         episodes = plan.episodes()
     except ValueError as exc:
         raise UsageError(one_line(exc)) from exc
+    for world in plan.worlds:
+        check_world(world_spec(world, option="--worlds"), option="--worlds")
     check_writable(args.out, option="--out")
     if args.record_dir is not None and not args.record_dir.absolute().parent.is_dir():
         raise CommandError(

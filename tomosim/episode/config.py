@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from merging.api import DEFAULT_METHOD
+from merging.catalog import find_map
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.simulation import SimulationConfig
 from tomosim.team.comms import CommsConfig
@@ -26,21 +27,24 @@ DEFAULT_WORLD_SEED = 0
 
 
 def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = None) -> World:
-    """The world named by ``spec``: a generated floor plan's seed, or a map_server YAML file.
+    """The world named by ``spec``: a generated floor plan's seed, a map's name or its YAML file.
 
     Parameters
     ----------
     spec : int, str or Path
         A non-negative integer (or a string of digits) is the seed of
-        :func:`~tomosim.worlds.generate_floorplan`; anything else is the path
-        of a ``map_server`` YAML file (:func:`~tomosim.worlds.world_from_map`).
+        :func:`~tomosim.worlds.generate_floorplan`; a name such as ``"aces3"``
+        is a map of the maps path (:func:`merging.catalog.find_map`; ``tomosim
+        maps`` lists them); a path is a ``map_server`` YAML file
+        (:func:`~tomosim.worlds.world_from_map`).
     size : (float, float), optional
         Width and height in metres of a generated floor plan (default 30 x 20).
 
     Raises
     ------
     FileNotFoundError
-        If the map file does not exist.
+        If the map file does not exist, or no folder of the maps path holds a
+        map of that name (the message lists the folders searched).
     ValueError
         If the seed is negative or the map file cannot be read.
     """
@@ -52,8 +56,10 @@ def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = Non
         width, height = size if size is not None else (None, None)
         return generate_floorplan(int(spec), width=width, height=height)
     if not isinstance(spec, str | Path):
-        raise TypeError(f"world must be a seed or a map file path, got {type(spec).__name__}")
-    path = Path(spec)
+        raise TypeError(
+            f"world must be a seed, a map name or a map file path, got {type(spec).__name__}"
+        )
+    path = find_map(spec)
     if not path.is_file():
         raise FileNotFoundError(f"map file not found: {path}")
     return world_from_map(path)

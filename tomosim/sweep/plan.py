@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from merging.catalog import is_map_path
 from tomosim.episode import EpisodeConfig
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.team import CommsConfig, team_methods
@@ -176,15 +177,20 @@ class SweepPlan:
 
 
 def world_name(world: object) -> str:
-    """How a sweep names a world: a seed as its number, a map file by its absolute path.
+    """How a sweep names a world: a seed as its number, a map by its name, a map file by
+    its absolute path.
 
     A resumed sweep finds its episodes by name, so one map must have one name
     however it was typed (``odd/a.yaml``, ``./odd/a.yaml`` or ``a.yaml`` from
-    ``odd/``), and two maps of one file name in two folders two names.
+    ``odd/``), and two maps of one file name in two folders two names. A map of
+    the maps path named by its name (``aces3``) keeps the name, which means the
+    same map on every machine that has it (:mod:`merging.catalog`).
     """
     text = str(world)
     if text.strip().lstrip("+-").isdigit():
         return str(int(text))
+    if isinstance(world, str) and not is_map_path(world) and not Path(text).suffix:
+        return text.strip("/")
     return os.path.abspath(os.path.expanduser(text))
 
 

@@ -300,7 +300,8 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
     [
         (["--robots", "40"], ["--robots must be from 1 to 16, got 40"], 2),
         (["--out", "/no/such/folder/rows.csv"], ["/no/such/folder", "does not exist"], 1),
-        (["--worlds", "foo"], ["--worlds must be seeds or map_server .yaml files", "'foo'"], 2),
+        (["--worlds", "foo.png"], ["--worlds must be a seed", "map's name", "'foo.png'"], 2),
+        (["--worlds", "foo"], ["--worlds foo: no map named 'foo'", "tomosim maps"], 1),
         (["--seeds", "-1"], ["--seeds must be non-negative integers, got -1"], 2),
         (["--world-size", "0", "9"], ["--world-size must be two positive numbers"], 2),
         (["--world-size", "3", "3"], ["world_size 3 x 3 m: width 3.0 m is too small"], 2),
