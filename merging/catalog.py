@@ -13,10 +13,14 @@ without the suffix: ``aces3`` for ``aces3.yaml``, ``halmstad/E5_01`` for
 
 An earlier folder wins when two hold a map of the same name.
 
->>> import merging
->>> from merging.catalog import find_map
->>> path = find_map("intel")  # doctest: +SKIP
->>> grid = merging.load_map("intel")  # the same map, by name  # doctest: +SKIP
+A path is taken as it is; a name is looked up (``merging.load_map("intel")``
+loads the map named ``intel``, ``tomosim maps`` lists the names):
+
+>>> from merging.catalog import find_map, is_map_path
+>>> str(find_map("maps/office.yaml"))
+'maps/office.yaml'
+>>> is_map_path("halmstad/E5_01"), is_map_path("./E5_01.yaml")
+(False, True)
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ COVERAGE_GAIN = 0.2
 they add more than twice that; robots that stand still add nothing)."""
 
 
+@pytest.mark.slow
 def test_the_team_explorer_drives_the_environment_as_a_scripted_baseline() -> None:
     env = multi_robot_exploration_v0.parallel_env(
         world=4, world_size=(15.0, 10.0), robots=2, max_cycles=120, merge_interval=40
@@ -27,6 +28,7 @@ def test_the_team_explorer_drives_the_environment_as_a_scripted_baseline() -> No
     assert env.session.coverage.fraction > start + COVERAGE_GAIN
 
 
+@pytest.mark.slow
 def test_the_frontier_baseline_coordinates_with_the_default_policy() -> None:
     baseline = FrontierBaseline()
     assert baseline.policy == DEFAULT_POLICY

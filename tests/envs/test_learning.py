@@ -56,6 +56,7 @@ def test_normalised_observations_are_images_and_unit_ranges() -> None:
         np.testing.assert_allclose(obs["pose"][2:], [np.cos(theta), np.sin(theta)], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_floors_draw_a_world_per_episode_from_the_seed() -> None:
     env = exploration.parallel_env(**SMALL, floors=exploration.TRAINING_FLOORS)
     worlds = []
@@ -94,6 +95,7 @@ def test_the_last_step_keeps_the_episode_s_figures() -> None:
     assert all("episode" not in info for info in reset_infos.values())
 
 
+@pytest.mark.slow
 def test_baselines_act_for_every_live_agent() -> None:
     coverage = {}
     for name, agents in (

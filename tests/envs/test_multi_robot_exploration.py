@@ -35,6 +35,7 @@ def test_parallel_api() -> None:
     parallel_api_test(small_env(), num_cycles=40)
 
 
+@pytest.mark.slow
 def test_aec_api() -> None:
     with warnings.catch_warnings():
         for message in DICT_OBSERVATION_WARNINGS:
@@ -46,6 +47,7 @@ def test_max_cycles() -> None:
     max_cycles_test(exploration)
 
 
+@pytest.mark.slow
 def test_render() -> None:
     render_test(lambda render_mode: exploration.env(**SMALL, render_mode=render_mode))
 
@@ -81,6 +83,7 @@ def rollout(seed: int, steps: int) -> list[tuple[Any, ...]]:
     return trace
 
 
+@pytest.mark.slow
 def test_same_seed_rollouts_match_exactly() -> None:
     first, second = rollout(8, ROLLOUT_STEPS), rollout(8, ROLLOUT_STEPS)
     assert len(first) == ROLLOUT_STEPS + 1
@@ -92,6 +95,7 @@ def test_same_seed_rollouts_match_exactly() -> None:
     assert not data_equivalence(first[0][0], other[0][0], exact=True)
 
 
+@pytest.mark.slow
 def test_gymnasium_view_passes_the_checker() -> None:
     team = gymnasium.make(envs.ENV_ID, **SMALL)
     check_env(team.unwrapped)

@@ -49,6 +49,7 @@ def test_without_the_shared_maps_the_scripts_say_where_they_looked(monkeypatch) 
         script_args.shared_maps()
 
 
+@pytest.mark.slow
 def test_sessions_linked_at_once_are_judged_against_the_floor_s_truth(
     maps_folder, tmp_path, capsys
 ) -> None:

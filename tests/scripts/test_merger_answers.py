@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from merging.catalog import MAPS_ENV
 from tests.support import REPO_ROOT
 
@@ -20,6 +22,7 @@ def run(maps_folder: Path, *args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(command, capture_output=True, text=True, env=environment, check=False)
 
 
+@pytest.mark.slow
 def test_answers_compare_identical_and_a_moved_one_is_named(maps_folder, tmp_path) -> None:
     record = tmp_path / "answers.jsonl"
     written = run(maps_folder, "--out", str(record))
@@ -42,6 +45,7 @@ def test_answers_compare_identical_and_a_moved_one_is_named(maps_folder, tmp_pat
     assert "3 identical, 1 different" in changed.stdout
 
 
+@pytest.mark.slow
 def test_a_missing_record_is_a_clear_error(maps_folder, tmp_path) -> None:
     missing = run(maps_folder, "--compare", str(tmp_path / "none.jsonl"))
     assert missing.returncode == 2

@@ -127,6 +127,7 @@ def test_reader_names_a_compressed_log_cut_short(tmp_path: Path) -> None:
         read_carmen(binary)
 
 
+@pytest.mark.slow
 def test_mapping_the_aces_log_reproduces_aces3() -> None:
     log_path, reference_path = aces_paths()
     log = read_carmen(log_path)

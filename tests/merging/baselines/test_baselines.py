@@ -44,6 +44,7 @@ def robot_map(maps_folder) -> np.ndarray:
     return merging.load_map(maps_folder / "ap_hill_robot3.yaml").data
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", BASELINES)
 @pytest.mark.parametrize("degrees", [-150.0, 65.0])
 def test_recovers_a_known_transform_on_a_real_map(robot_map, method: str, degrees: float) -> None:
@@ -59,6 +60,7 @@ def test_recovers_a_known_transform_on_a_real_map(robot_map, method: str, degree
     assert result.method == method and "total" in result.timings
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", BASELINES)
 def test_confidence_is_the_shared_verification(robot_map, method: str) -> None:
     # "accepted" must mean the same for every method: recompute the shared check.
@@ -133,6 +135,7 @@ def test_never_raises_on_valid_grids(method: str, first: np.ndarray, second: np.
     assert np.all(np.isfinite(result.matrix))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["sift", "orb", "harris", "shi_tomasi"])
 def test_feature_matchers_are_seeded(building: np.ndarray, method: str) -> None:
     map2, _ = turned(building, 40.0, (3.0, 0.0))
@@ -195,6 +198,7 @@ def test_log_polar_rotation_is_found_modulo_a_half_turn(robot_map: np.ndarray, d
 # --- the corner descriptors -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_patches_turn_with_the_map(building: np.ndarray) -> None:
     degrees = 50.0
     map2, truth = turned(building, degrees, (0.0, 0.0))
@@ -265,6 +269,7 @@ def test_ros_pipeline_without_opencv_names_the_install(monkeypatch) -> None:
         merging.estimate_transform(grid, grid, method="ros_akaze")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ROS_PIPELINES)
 @pytest.mark.parametrize("shape", [(1, 300), (300, 1)])
 def test_ros_pipeline_refuses_a_grid_one_cell_wide(opencv, method: str, shape) -> None:

@@ -250,6 +250,7 @@ def test_bending_maps_are_placed_by_every_pair_not_a_chain() -> None:
     assert miss(linking.transforms[3]) < 12.0  # no farther off than its own pairs
 
 
+@pytest.mark.slow
 def test_sessions_of_one_floor_link_as_their_pairs_are_right(maps_folder) -> None:
     """Five E5 sessions, all pairs: every linked transform right by the floor's rule."""
     import json

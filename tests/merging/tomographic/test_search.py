@@ -80,6 +80,7 @@ def test_reports_stage_timings_and_hypotheses(building: np.ndarray) -> None:
     assert result.hypotheses[0].score >= result.hypotheses[1].score
 
 
+@pytest.mark.slow
 def test_window_pairs_of_real_maps(maps_folder) -> None:
     # The section 4.1 protocol on two real maps: every accepted merge must be right.
     right = accepted_wrong = 0

@@ -43,6 +43,7 @@ def explored(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     return record, json.loads(out.getvalue())
 
 
+@pytest.mark.slow
 def test_explore_reports_a_run_and_records_it(explored: tuple[Path, dict]) -> None:
     record, report = explored
     assert report["steps"] == 60 and report["stop_reason"] == "step limit reached"
@@ -53,6 +54,7 @@ def test_explore_reports_a_run_and_records_it(explored: tuple[Path, dict]) -> No
     verify(record)
 
 
+@pytest.mark.slow
 def test_review_reads_back_what_explore_reported(
     explored: tuple[Path, dict], capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
@@ -158,6 +160,7 @@ def test_explore_reports_exploration_figures(explored: tuple[Path, dict]) -> Non
     assert report["merge_stats"]["rounds"] == len(report["merges"])
 
 
+@pytest.mark.slow
 def test_explore_with_the_oracle_and_a_communication_range(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -369,6 +372,7 @@ def wait_for_steps(record: Path, process: subprocess.Popen[str]) -> None:
     pytest.fail(f"the run wrote less than {RECORDED_BYTES} bytes in {STOP_TIMEOUT_S} s")
 
 
+@pytest.mark.slow
 def test_sigterm_stops_explore_cleanly(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     record = tmp_path / "stopped.rrd"
     process = explore_in_background(record)
@@ -394,6 +398,7 @@ def test_sigterm_stops_explore_cleanly(tmp_path: Path, capsys: pytest.CaptureFix
     assert said is not None and recorded is not None and said[1] == recorded[1]
 
 
+@pytest.mark.slow
 def test_review_marks_a_killed_run_unfinished_and_reads_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -59,6 +59,7 @@ def test_a_script_s_error_is_one_line_and_status_1(
         run_script(main, "/somewhere/bench.py")
 
 
+@pytest.mark.slow
 def test_a_negative_pair_count_is_refused_before_any_work() -> None:
     # It used to run the window search for minutes, keeping every pair it found.
     run = subprocess.run(

@@ -134,6 +134,7 @@ def run_exploration(
     return coverage(world, sim.grid(0), sim.start_poses[0]), steps, closest
 
 
+@pytest.mark.slow
 def test_one_robot_explores_a_small_floor() -> None:
     explored, _steps, closest = run_exploration(3, SMALL_BUDGET, width=15.0, height=10.0)
     assert explored >= SMALL_COVERAGE

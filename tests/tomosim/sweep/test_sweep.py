@@ -91,6 +91,7 @@ def test_process_and_ray_give_the_same_rows(tmp_path: Path) -> None:
     assert {row["method"] for row in rows} == {"tomographic", "none"}
 
 
+@pytest.mark.slow
 def test_killed_sweep_resumes_without_repeating(tmp_path: Path) -> None:
     out = tmp_path / "rows.csv"
     command = [
@@ -172,6 +173,7 @@ def test_resuming_into_another_file_leaves_it_whole(
     assert out.read_bytes() == content
 
 
+@pytest.mark.slow
 def test_a_sweep_that_fails_to_start_leaves_no_empty_file(tmp_path: Path) -> None:
     out = tmp_path / "rows.csv"
     plan = SweepPlan(worlds=(str(tmp_path / "missing.yaml"),), robots=(2,), **SMALL)  # type: ignore[arg-type]
@@ -232,6 +234,7 @@ WORKERS_END_S = 10.0
 """Longest time pool workers may outlive their parent."""
 
 
+@pytest.mark.slow
 def test_a_second_sweep_on_the_same_file_refuses(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -249,6 +252,7 @@ def test_a_second_sweep_on_the_same_file_refuses(
     assert ResultsFile(out).rows() == []  # the refused sweep wrote nothing
 
 
+@pytest.mark.slow
 def test_workers_end_with_a_killed_parent(tmp_path: Path) -> None:
     process = start(sweep_command(tmp_path / "rows.csv", seeds=2, workers=2, steps=1500))
     try:
@@ -261,6 +265,7 @@ def test_workers_end_with_a_killed_parent(tmp_path: Path) -> None:
             os.killpg(process.pid, signal.SIGKILL)
 
 
+@pytest.mark.slow
 def test_sigterm_stops_the_sweep_and_says_how_to_resume(tmp_path: Path) -> None:
     out = tmp_path / "rows.csv"
     process = start(sweep_command(out, seeds=2, workers=2, steps=1500))
@@ -278,6 +283,7 @@ def test_sigterm_stops_the_sweep_and_says_how_to_resume(tmp_path: Path) -> None:
             os.killpg(process.pid, signal.SIGKILL)
 
 
+@pytest.mark.slow
 def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
     plan = SweepPlan(worlds=("1",), robots=(2,), methods=("none",), seeds=(0,), **SMALL)  # type: ignore[arg-type]
     reports: list[tuple[str, int, float]] = []

@@ -46,6 +46,7 @@ def tracked() -> tuple[list[RoundQuality], float]:
     return explore(worker=True)
 
 
+@pytest.mark.slow
 def test_worker_and_inline_searches_give_the_same_run(
     tracked: tuple[list[RoundQuality], float],
 ) -> None:
@@ -158,6 +159,7 @@ def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
     assert taken.exception() is None and not taken.result().accepted
 
 
+@pytest.mark.slow
 def test_searches_come_back_when_the_worker_has_ended(
     monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:

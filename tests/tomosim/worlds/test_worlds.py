@@ -20,6 +20,7 @@ def office() -> World:
     return generate_floorplan(5)
 
 
+@pytest.mark.slow
 def test_same_seed_same_world_and_different_seeds_differ() -> None:
     a, b, c = generate_floorplan(11), generate_floorplan(11), generate_floorplan(12)
     np.testing.assert_array_equal(a.walls, b.walls)
@@ -160,6 +161,7 @@ def test_floorplan_config_refuses_sizes_no_grid_holds() -> None:
         FloorplanConfig(width=10000.0)
 
 
+@pytest.mark.slow
 def test_real_map_becomes_a_world() -> None:
     folder = maps_dir()
     if folder is None or not (folder / "aces3.yaml").is_file():
