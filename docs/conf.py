@@ -38,7 +38,8 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
-exclude_patterns = ["_build", "_templates", "**/study_exploration.md", "figures/*.md"]
+# Reports the scripts write are included by the benchmark pages, not built on their own.
+exclude_patterns = ["_build", "_templates", "reproduce_paper.md", "figures/**.md"]
 templates_path = ["_templates"]
 
 # -- MyST ------------------------------------------------------------------------
