@@ -159,7 +159,8 @@ def _scopes(node):
     found = _DOCSTRING_OF.search(str(node.source or ""))
     if found:
         documented = _lookup(found.group(1))
-        home = getattr(getattr(documented, "fget", documented), "__module__", None)
+        function = getattr(documented, "fget", getattr(documented, "func", documented))
+        home = getattr(function, "__module__", None)  # a property's, or a cached one's
         if isinstance(home, str):
             scopes.append(sys.modules.get(home))
         parts = found.group(1).split(".")
