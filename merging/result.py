@@ -46,7 +46,7 @@ class MergeResult:
         The method's registered name.
     matrix_metres : (3, 3) float ndarray or None
         The same transform between the maps' frames in metres (map 2 frame ->
-        map 1 frame), when both inputs were :class:`OccupancyGrid`s; always
+        map 1 frame), when both inputs were :class:`OccupancyGrid` objects; always
         rigid.
     hypotheses : tuple of Hypothesis
         Candidates considered, best first.

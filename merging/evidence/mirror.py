@@ -60,7 +60,7 @@ from merging.transforms import apply_transform
 
 REGION_SAMPLES = 100_000
 """Cells of a map (about 300 x 300) up to which the overlap is decided cell by cell; on
-larger maps blocks of cells are decided together (:func:`_landing_mask`), so that the
+larger maps blocks of cells are decided together (``_landing_mask``), so that the
 overlap of two whole buildings takes milliseconds and is off by a few cells at its
 edge at most, where both the placement's and its mirror image's evidence are
 counted alike."""
@@ -127,7 +127,7 @@ def overlap_region(
     """Cells of map 1 known in both maps when ``matrix`` (map 2 -> map 1) lays map 2 on it.
 
     Decided for blocks of cells on maps of more than :data:`REGION_SAMPLES`
-    cells (:func:`_landing_mask`).
+    cells (``_landing_mask``).
     """
     back = np.asarray(np.linalg.inv(matrix), dtype=np.float64)
     return _landing_mask(first.cells >= 0, back, second.cells >= 0)

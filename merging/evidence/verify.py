@@ -102,7 +102,7 @@ def dilate(mask: NDArray[np.bool_], radius: int) -> NDArray[np.bool_]:
     (pinned by a test), done as separable shifted ORs: on a whole building
     (1803 x 1647 cells) 6 to 60 times faster than ``binary_dilation`` or
     ``maximum_filter`` (``python scripts/bench_kernels.py``). Each axis grows
-    by doubling (:func:`_dilation_steps`): a reach of ``a`` cells ORed with
+    by doubling (``_dilation_steps``): a reach of ``a`` cells ORed with
     itself shifted by ``s <= a + 1`` both ways reaches ``a + s`` without gaps,
     and the cells an edge cuts off would only have added cells already set,
     so a radius of 6 takes 3 shifts a side, not 6.

@@ -24,29 +24,29 @@ of the map along the radial line at angle α. So
 
 Where each equation of the paper went
 -------------------------------------
-========================  ===============================================
-paper                     here
-========================  ===============================================
-eq. (1) transform         :func:`merging.transforms.rigid_matrix`
-eqs. (2)-(6) sinogram     angular spectra by the Fourier slice theorem
-                          (:func:`merging.tomographic.angular.angular_spectrum`)
-eq. (7) rotation          the peaks of the circular correlation of the
-                          angular spectra
-                          (:func:`~merging.tomographic.angular.rotation_correlation`),
-                          each with its 180° twin
-eq. (8) rotate map 2      in :func:`~merging.tomographic.correlate.translation_peaks`
-eqs. (9)-(17) translation the pooled correlation of all projections, as a
-                          2-D FFT correlation on a coarse grid
-eqs. (18)-(26) search     the few strongest rotation and translation peaks
-space (GMMs)              replace the Gaussian mixtures' means
-eqs. (27)-(30) Monte      each hypothesis is verified (:mod:`merging.evidence.verify`)
-Carlo objective           and the best refined by Gauss-Newton
-                          (:mod:`merging.evidence.refine`), the stages of
-                          :data:`merging.params.DEFAULT_STAGES`; the winner
-                          is held against map 2's mirror image
-                          (:mod:`merging.evidence.mirror`)
-eq. (31) matching index   :func:`merging.evaluation.metrics.matching_index` (scoring only)
-========================  ===============================================
+=========================  ===============================================
+paper                      here
+=========================  ===============================================
+eq. (1) transform          :func:`merging.transforms.rigid_matrix`
+eqs. (2)-(6) sinogram      angular spectra by the Fourier slice theorem
+                           (:func:`merging.tomographic.angular.angular_spectrum`)
+eq. (7) rotation           the peaks of the circular correlation of the
+                           angular spectra
+                           (:func:`~merging.tomographic.angular.rotation_correlation`),
+                           each with its 180° twin
+eq. (8) rotate map 2       in :func:`~merging.tomographic.correlate.translation_peaks`
+eqs. (9)-(17) translation  the pooled correlation of all projections, as a
+                           2-D FFT correlation on a coarse grid
+eqs. (18)-(26) search      the few strongest rotation and translation peaks
+space (GMMs)               replace the Gaussian mixtures' means
+eqs. (27)-(30) Monte       each hypothesis is verified (:mod:`merging.evidence.verify`)
+Carlo objective            and the best refined by Gauss-Newton
+                           (:mod:`merging.evidence.refine`), the stages of
+                           :data:`merging.params.DEFAULT_STAGES`; the winner
+                           is held against map 2's mirror image
+                           (:mod:`merging.evidence.mirror`)
+eq. (31) matching index    :func:`merging.evaluation.metrics.matching_index` (scoring only)
+=========================  ===============================================
 
 The paper's pipeline as written is ``method="paper"`` (:mod:`merging.paper`).
 

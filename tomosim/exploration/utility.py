@@ -2,7 +2,7 @@
 
 In [1]_ every frontier cell ``t`` starts with utility ``U_t = 1``; once a
 robot is sent to target ``t'``, the utility of every cell near it falls by the
-probability that it will be seen from there,
+probability that it will be seen from there::
 
     U_t <- U_t - P(|t - t'|),    P(d) = 1 - d / R  for d < R, else 0,
 

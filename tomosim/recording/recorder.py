@@ -25,7 +25,7 @@ and places the grid's origin, so image row 0 is the grid's row 0 (its lowest
 ``maps/rK`` frames mirror ``y`` once, because rerun's 2-D views draw ``y``
 down.
 
-Writing is checked every :data:`FLUSH_INTERVAL_S` seconds: a recording that
+Writing is checked every ``FLUSH_INTERVAL_S`` seconds: a recording that
 cannot be written (a full disk, a file removed) raises :class:`RecordingError`
 during the run, not after it.
 """
