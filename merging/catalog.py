@@ -33,7 +33,7 @@ from pathlib import Path
 from PIL import Image
 
 MAPS_ENV = "TOMOSIM_MAPS"
-"""Environment variable naming the folders of maps (separated by :data:`os.pathsep`)."""
+"""Environment variable naming the folders of maps (separated by ``os.pathsep``)."""
 SHARED_ENV = "TOMOSIM_SHARED"
 """Environment variable naming the shared data folder (holding ``maps/`` and ``datasets/``)."""
 SHARED_NAME = "shared"
@@ -112,7 +112,7 @@ def find_map(source: str | Path) -> Path:
     source : str or Path
         A map name (``"intel"``, ``"halmstad/E5_01"``), looked up in the
         folders of :func:`map_folders`, or a path to a ``map_server`` YAML file.
-        A :class:`~pathlib.Path`, a string ending in ``.yaml`` or ``.yml``, or
+        A ``Path``, a string ending in ``.yaml`` or ``.yml``, or
         one starting with ``/``, ``~`` or ``.`` is a path; an existing file is
         always taken as it is.
 
