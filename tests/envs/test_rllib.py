@@ -169,3 +169,42 @@ def test_a_tiny_training_reports_metrics_curves_and_tensorboard(tmp_path: Path) 
     coverage = events.Scalars("ray/tune/env_runners/exploration/team_coverage")
     assert coverage and all(0.0 < point.value <= 1.0 for point in coverage)
     assert coverage[-1].step == summary["timesteps"]  # against agent-steps
+
+
+TUNE_RUN = """
+import sys
+from ray import tune
+from envs.rllib import ppo_config
+
+config = (
+    ppo_config({"world_size": (12.0, 9.0), "robots": 2, "max_cycles": 40})
+    .env_runners(num_env_runners=0)
+    .training(train_batch_size_per_learner=80, minibatch_size=80, num_epochs=1)
+)
+tuner = tune.Tuner(
+    config.algo_class,
+    param_space=config,
+    run_config=tune.RunConfig(
+        storage_path=sys.argv[1], name="tiny", stop={"training_iteration": 1}, verbose=0
+    ),
+)
+assert not tuner.fit().errors
+"""
+"""One iteration through Tune, as RLlib's examples run their experiments."""
+
+
+@pytest.mark.slow
+def test_tune_s_own_tensorboard_logger_records_the_episode_figures(tmp_path: Path) -> None:
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    run = subprocess.run(
+        [sys.executable, "-c", TUNE_RUN, str(tmp_path)],
+        cwd=ROOT, capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-3000:]
+    (events_file,) = tmp_path.glob("tiny/*/events.out.tfevents.*")
+    events = EventAccumulator(str(events_file.parent))
+    events.Reload()
+    tags = set(events.Tags()["scalars"])
+    assert "ray/tune/env_runners/exploration/team_coverage" in tags
+    assert "ray/tune/env_runners/episode_return_mean" in tags
