@@ -44,9 +44,8 @@ import numpy as np
 from envs.learning_metrics import episode_scalars
 from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv, parallel_env
 
-RLLIB_INSTALL = 'PIP_FIND_LINKS=/opt/wheels pip install -e ".[rllib]"'
-"""The command that installs RLlib and the CPU build of torch from local wheels (see
-docs/learning.md for PyTorch's CPU index instead)."""
+RLLIB_INSTALL = 'pip install -e ".[rllib]"'
+"""The command that installs RLlib and torch (docs/learning.md: the CPU build first)."""
 
 try:
     import torch
@@ -61,7 +60,10 @@ try:
 
     from envs.rllib_module import ExplorationModule
 except ImportError as error:
-    raise ImportError(f"the RLlib adapter needs ray[rllib] and torch: {RLLIB_INSTALL}") from error
+    raise ImportError(
+        f"the RLlib adapter needs ray[rllib] and torch: {RLLIB_INSTALL} (docs/learning.md "
+        "says how to get the CPU build of torch)"
+    ) from error
 
 ENV_NAME = "tomosim/multi_robot_exploration_v0"
 """The name :func:`register` gives the environment in RLlib's (Tune's) registry."""

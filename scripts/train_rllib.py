@@ -26,7 +26,7 @@ keeps the curve so far and saves the checkpoint as it is.
 
 Usage::
 
-    PIP_FIND_LINKS=/opt/wheels pip install -e ".[rllib]"
+    pip install -e ".[rllib]"      # docs/learning.md: the CPU build of torch first
     python scripts/train_rllib.py --timesteps 100000 --out results/rllib
     python scripts/train_rllib.py --timesteps 100000 --out results/rllib \\
         --address auto --env-runners 8           # on a running Ray cluster

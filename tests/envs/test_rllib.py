@@ -16,7 +16,7 @@ from envs import multi_robot_exploration_v0 as exploration
 SMALL = {"world_size": (12.0, 9.0), "robots": 2}
 """A small floor with two robots: quick to step."""
 ROOT = Path(__file__).resolve().parents[2]
-INSTALL = 'PIP_FIND_LINKS=/opt/wheels pip install -e ".[rllib]"'
+INSTALL = 'pip install -e ".[rllib]"'
 """As :data:`envs.rllib.RLLIB_INSTALL` (which cannot be imported without the extra)."""
 HAVE_RLLIB = all(
     importlib.util.find_spec(name) for name in ("ray", "torch", "tree", "lz4", "tensorboard")
