@@ -23,7 +23,7 @@ the one generator every draw comes from; ``reset()`` continues with it.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -61,7 +61,7 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
             stacked[key] = spaces.Box(
                 np.broadcast_to(box.low, (count, *box.shape)),
                 np.broadcast_to(box.high, (count, *box.shape)),
-                dtype=box.dtype,
+                dtype=cast(Any, box.dtype),  # Gymnasium 1.2 types it as a scalar type
             )
         self.observation_space = spaces.Dict(stacked)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(count, 2), dtype=np.float32)
@@ -98,8 +98,9 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
         reward = float(sum(rewards.values()))
         return self._stack(observations), reward, terminated, truncated, {"agents": infos}
 
-    def render(self) -> NDArray[np.uint8] | None:
-        """The frame of the parallel environment's ``render``."""
+    def render(self) -> Any:  # Gymnasium 1.2 types Env.render with a type variable
+        """The frame of the parallel environment's ``render``: a ``(rows, cols, 3)`` uint8
+        array, or None."""
         return self.team.render()
 
     def close(self) -> None:

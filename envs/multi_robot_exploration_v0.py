@@ -94,7 +94,14 @@ robot 0's (``estimate``,
 At the last step of an episode each agent's info also holds ``episode``: ``r``
 (the agent's return), ``l`` (steps), its ``coverage``, ``team_coverage``,
 ``terminated``, ``truncated``, ``world`` (its name) and every agent's
-``returns`` (``r`` and ``l`` as in Stable-Baselines3's ``Monitor``). No reset
+``returns`` (``r`` and ``l`` as in Stable-Baselines3's ``Monitor``), and the
+figures exploration papers report, named as in ``tomosim sweep``'s rows
+(:mod:`tomosim.episode.exploration_tracker`): ``steps_to_target`` (the step at which the
+team reached ``coverage_target``, None if it did not), ``path_length_m`` (metres
+the robots' true positions travelled, all robots together), ``overlap_rate``
+(the sum of the robots' own coverages over the team's, less one),
+``merge_rounds``, and ``pairs_accepted`` and ``pairs_confirmed`` (pair estimates
+the merger accepted, and of those the confirmed ones, summed over the rounds). No reset
 info has this key, so a vector environment that resets on its own and merges
 the reset's infos into the last step's (SuperSuit's) keeps it; the same
 dictionary, without ``r`` and ``coverage``, stays in ``env.last_episode``
@@ -135,8 +142,8 @@ Version history
 ---------------
 * v0: initial version. Later additions left its defaults (spaces, dynamics,
   rewards) as they were and so kept the name: ``render_mode="human"``, the
-  options ``floors`` and ``observation_format``, and the ``episode`` info of the
-  last step.
+  options ``floors`` and ``observation_format``, the ``episode`` info of the
+  last step, and its exploration figures (``steps_to_target`` to ``pairs_confirmed``).
 """
 
 from __future__ import annotations
@@ -168,9 +175,10 @@ from envs.observations import (
 from envs.rendering import HumanWindow, render_frame
 from merging.api import DEFAULT_METHOD
 from tomosim.episode import load_world
+from tomosim.episode.exploration_tracker import ExplorationTracker
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.simulation import SimulationConfig
-from tomosim.team import TeamConfig, TeamSession, robot_name
+from tomosim.team import RoundQuality, TeamConfig, TeamSession, robot_name
 from tomosim.worlds import World
 
 TRAINING_FLOORS = range(1000, 1_000_000)
@@ -328,6 +336,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self._merge_source: Any = None
         self._merge_info: dict[str, Any] = {}
         self._returns = np.zeros(len(self.possible_agents))
+        self._tracker: ExplorationTracker | None = None
+        self._pair_counts = np.zeros(3, dtype=int)  # merge rounds, accepted, confirmed
         self.window: HumanWindow | None = None
         if render_mode == "human":
             self.window = HumanWindow(self.metadata["render_fps"], title=self.metadata["name"])
@@ -373,6 +383,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
             )
             self.agents = list(self.possible_agents)
+            self._tracker = ExplorationTracker(self.session)
+            self._pair_counts[:] = 0
             start = self.session.coverage.fraction
             if start >= self.coverage_target and not self._warned_done_at_start:
                 self._warned_done_at_start = True
@@ -418,6 +430,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
         with interrupts_unwrapped():  # a Ctrl-C inside a kernel reaches the caller as one
             merge = session.step(commands)
             observations = self._observations()
+        self._follow(merge)
         rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
         done = session.coverage.fraction >= self.coverage_target
         cut = session.steps >= self.max_cycles
@@ -432,11 +445,20 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
+    def _follow(self, merge: RoundQuality | None) -> None:
+        """Take in a step's path lengths and coverages, and its merge round if one ran."""
+        assert self._tracker is not None and self.session is not None  # start() made them
+        self._tracker.update(self.session)
+        if merge is not None:
+            accepted = merge.accepted
+            self._pair_counts += (1, len(accepted), sum(p.confirmed for p in accepted))
+
     def _end_episode(self, infos: dict[str, dict[str, Any]], *, terminated: bool) -> None:
         """Keep the episode's final figures (``last_episode``, ``infos[a]["episode"]``)."""
-        session = self.session
-        assert session is not None  # step() checked it
+        session, tracker = self.session, self._tracker
+        assert session is not None and tracker is not None  # step() checked them
         returns = {a: float(r) for a, r in zip(self.possible_agents, self._returns, strict=True)}
+        rounds, accepted, confirmed = (int(n) for n in self._pair_counts)
         summary = {
             "l": session.steps,
             "team_coverage": session.coverage.fraction,
@@ -444,6 +466,14 @@ class MultiRobotExplorationEnv(ParallelEnv):
             "truncated": not terminated,
             "world": self.world.name,
             "returns": returns,
+            "steps_to_target": next(
+                (s for s, c in enumerate(tracker.team_curve) if c >= self.coverage_target), None
+            ),
+            "path_length_m": tracker.last.path_length,
+            "overlap_rate": tracker.last.overlap_rate,
+            "merge_rounds": rounds,
+            "pairs_accepted": accepted,
+            "pairs_confirmed": confirmed,
         }
         self.last_episode = summary
         for k, agent in enumerate(self.possible_agents):

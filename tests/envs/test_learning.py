@@ -22,7 +22,8 @@ SMALL = {"world_size": (12.0, 9.0), "robots": 2}
 """A small floor with two robots: quick to step."""
 ROOT = Path(__file__).resolve().parents[2]
 HAVE_RL = all(
-    importlib.util.find_spec(name) for name in ("torch", "stable_baselines3", "supersuit")
+    importlib.util.find_spec(name)
+    for name in ("torch", "stable_baselines3", "supersuit", "tensorboard")
 )
 needs_rl = pytest.mark.skipif(not HAVE_RL, reason=f"needs the rl extra: {RL_INSTALL}")
 
@@ -197,10 +198,12 @@ def test_sb3_adapter_names_each_entry_s_seed_and_renders() -> None:
 
 @needs_rl
 def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
-    out = tmp_path / "ppo"
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    out, board = tmp_path / "ppo", tmp_path / "board"
     subprocess.run(
         [sys.executable, str(ROOT / "scripts" / "train_ppo.py"), "--smoke", "--timesteps", "128",
-         "--envs", "1", "--out", str(out)],
+         "--envs", "1", "--out", str(out), "--tensorboard", str(board)],
         check=True, cwd=tmp_path, capture_output=True, text=True,
     )  # fmt: skip
     summary = json.loads((out / "summary.json").read_text())
@@ -211,3 +214,12 @@ def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
     rows = (out / "learning_curve.csv").read_text().splitlines()
     assert rows[0].startswith("timesteps,") and len(rows) >= 2  # 40-step episodes ended
     assert (out / "learning_curve.png").stat().st_size > 0 and (out / "model.zip").exists()
+    events = EventAccumulator(str(board / "PPO_1"))
+    events.Reload()
+    tags = set(events.Tags()["scalars"])
+    assert "rollout/ep_rew_mean" in tags  # the episode return, from the episode info
+    for name in ("team_coverage", "path_length_m", "overlap_rate", "pairs_accepted"):
+        assert f"exploration/{name}" in tags
+    coverage = events.Scalars("exploration/team_coverage")
+    assert coverage and all(0.0 < point.value <= 1.0 for point in coverage)
+    assert coverage[-1].step <= summary["timesteps"]  # against agent-steps
