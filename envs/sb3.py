@@ -29,6 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env import VecEnv
 
+from merging.validators import whole_number
+
 
 class SB3VectorEnv(VecEnv):
     """Stable-Baselines3's ``VecEnv`` interface over a Gymnasium vector env of robots.
@@ -42,7 +44,8 @@ class SB3VectorEnv(VecEnv):
     """
 
     def __init__(self, venv: Any, envs: int) -> None:
-        if not (isinstance(envs, int) and envs >= 1 and venv.num_envs % envs == 0):
+        whole_number(envs, "envs", minimum=1)
+        if venv.num_envs % envs:
             raise ValueError(
                 f"envs must be a whole number >= 1 dividing the {venv.num_envs} robot "
                 f"entries, got {envs!r}"
