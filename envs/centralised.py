@@ -30,7 +30,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv
+from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv, parallel_env
 
 ENV_ID = "tomosim/MultiRobotExploration-v0"
 """The Gymnasium id this view is registered under (in :mod:`envs`)."""
@@ -50,7 +50,7 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}  # noqa: RUF012  # Gymnasium API
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        self.team = MultiRobotExplorationEnv(render_mode=render_mode, **kwargs)
+        self.team: MultiRobotExplorationEnv = parallel_env(render_mode=render_mode, **kwargs)
         self.render_mode = render_mode
         count = len(self.team.possible_agents)
         single = self.team.observation_space(self.team.possible_agents[0])

@@ -3,9 +3,9 @@
 Lidar-equipped differential-drive robots (pymunk physics, 360-beam lidar,
 drifting odometry) start at random free poses with random headings, unknown
 to each other, and each builds an occupancy grid in its own start frame.
-Every ``merge_interval`` steps all grids are merged (tomographic method by
-default); once a robot's map is linked to teammates' by confirmed merges,
-its observation shows the team's map in its own frame.
+Every ``team.merge_interval`` steps (50 by default) all grids are merged
+(tomographic method by default); once a robot's map is linked to teammates'
+by confirmed merges, its observation shows the team's map in its own frame.
 
 =====================  =============================================================
 Import                 ``from envs import multi_robot_exploration_v0``
@@ -40,7 +40,8 @@ pose   (3,)          float32  pose estimate (x, y, theta) in the robot's own map
 The *best map* of a robot is its own grid, with the cells it has not observed
 filled in from the grids of the teammates its map is linked to through
 confirmed merges, carried into its frame by the merge transforms
-(:mod:`tomosim.team.sharing`; teammates' grids are refreshed every 10 steps).
+(:mod:`tomosim.team.sharing`; teammates' grids are refreshed every
+``team.share_interval`` steps, 10 by default).
 A merge the merger does not accept is never used; one it accepts is used
 once the next round confirms it (:class:`tomosim.team.TeamMerger`).
 
@@ -109,17 +110,41 @@ until the next episode ends.
 
 Arguments
 ---------
-``world`` (generated floor plan seed, map_server YAML path or ``World``; default
-floor plan 0), ``world_size`` (width, height of a generated floor plan, metres),
-``robots`` (3), ``max_cycles`` (1500), ``merge`` (True), ``merge_interval`` (50),
-``method`` ("tomographic"), ``coverage_target`` (0.9), ``crop_size`` (64),
-``crop_resolution`` (0.1 m), ``simulation`` (a ``tomosim.simulation.SimulationConfig``),
-``render_mode`` (None, "rgb_array" or "human"; below), ``floors`` (None, or floor
-plan seeds: each reset generates a floor drawn from them, of ``world_size``; use
-``TRAINING_FLOORS`` to learn and ``HELD_OUT_FLOORS``, disjoint from them, to
-evaluate), ``observation_format`` ("metric", the table above, or "normalised",
-for learners: the map as a ``uint8`` image of channels free, occupied, unknown,
-scan and pose scaled to ``[0, 1]`` and ``[-1, 1]``; see :mod:`envs.observations`).
+
+======================  ==========================================================
+argument                meaning (default)
+======================  ==========================================================
+``world``               generated floor plan seed, map_server YAML path or
+                        ``World`` (floor plan 0)
+``world_size``          width, height of a generated floor plan in metres (30, 20)
+``robots``              number of robots (3)
+``max_cycles``          steps before truncation (1500)
+``team``                a ``tomosim.team.TeamConfig``: every setting of the team,
+                        among them ``merge`` (True), ``method``
+                        ("tomographic"; "oracle": the true start poses),
+                        ``merge_interval`` (50 steps), ``confirmations`` (2),
+                        ``share_interval`` (10 steps), ``tracking`` (True),
+                        ``comms`` (unlimited range) and ``simulation`` (robots,
+                        lidar, odometry, mapping); default ``TeamConfig()``
+``coverage_target``     team coverage that terminates the episode (0.9)
+``crop_size``           side of the ``map`` observation in cells (64)
+``crop_resolution``     metres per cell of the ``map`` observation (0.1)
+``render_mode``         None, "rgb_array" or "human" (None; below)
+``floors``              None, or floor plan seeds: each reset generates a floor
+                        drawn from them, of ``world_size``; use
+                        ``TRAINING_FLOORS`` to learn and ``HELD_OUT_FLOORS``,
+                        disjoint from them, to evaluate (None)
+``observation_format``  "metric", the table above, or "normalised", for
+                        learners: the map as a ``uint8`` image of channels
+                        free, occupied, unknown, scan and pose scaled to
+                        ``[0, 1]`` and ``[-1, 1]``; see :mod:`envs.observations`
+                        ("metric")
+======================  ==========================================================
+
+For example ``parallel_env(robots=4, team=TeamConfig(merge_interval=100,
+comms=CommsConfig(10.0)))``. A team setting given on its own
+(``parallel_env(merge_interval=100)``) is refused with the ``team=`` to write
+instead.
 
 Rendering
 ---------
@@ -143,12 +168,16 @@ Version history
 * v0: initial version. Later additions left its defaults (spaces, dynamics,
   rewards) as they were and so kept the name: ``render_mode="human"``, the
   options ``floors`` and ``observation_format``, the ``episode`` info of the
-  last step, and its exploration figures (``steps_to_target`` to ``pairs_confirmed``).
+  last step and its exploration figures (``steps_to_target`` to
+  ``pairs_confirmed``), and the ``team`` argument, which took in the arguments
+  ``merge``, ``merge_interval``, ``method`` and ``simulation`` (with the same
+  defaults) and gave the environment the team's other settings.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -173,11 +202,10 @@ from envs.observations import (
     pose_bound,
 )
 from envs.rendering import HumanWindow, render_frame
-from merging.api import DEFAULT_METHOD
-from tomosim.episode import load_world
+from merging.validators import SettingTypeError, one_of, real_number, whole_number
+from tomosim.episode import DEFAULT_COVERAGE_TARGET, DEFAULT_ROBOTS, DEFAULT_WORLD_SEED, load_world
 from tomosim.episode.exploration_tracker import ExplorationTracker
 from tomosim.kernels.jit import interrupts_unwrapped
-from tomosim.simulation import SimulationConfig
 from tomosim.team import RoundQuality, TeamConfig, TeamSession, robot_name
 from tomosim.worlds import World
 
@@ -188,6 +216,8 @@ HELD_OUT_FLOORS = range(0, 1000)
 world (floor 0) is one of them."""
 RESOLUTION_TOLERANCE = 1e-9
 """Relative slack when checking that the crop resolution is a whole number of map cells."""
+TEAM_SETTINGS = frozenset(f.name for f in dataclasses.fields(TeamConfig))
+"""Names of the team's settings, which the environment takes in one ``team`` argument."""
 
 LOG = logging.getLogger(__name__)
 """Says when an episode ends as it starts (the team already knows enough)."""
@@ -196,20 +226,6 @@ LOG = logging.getLogger(__name__)
 def agent_name(index: int) -> str:
     """The agent id of robot ``index``: ``robot_0``, ``robot_1``, ..."""
     return f"robot_{index}"
-
-
-def _whole(value: object) -> bool:
-    """Whether ``value`` is a whole number (an int, not a bool)."""
-    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
-
-
-def _real(value: object) -> bool:
-    """Whether ``value`` is a finite number (not a bool)."""
-    return (
-        isinstance(value, int | float | np.integer | np.floating)
-        and not isinstance(value, bool | np.bool_)
-        and math.isfinite(value)
-    )
 
 
 class MultiRobotExplorationEnv(ParallelEnv):
@@ -224,18 +240,15 @@ class MultiRobotExplorationEnv(ParallelEnv):
 
     def __init__(
         self,
-        world: int | str | Path | World = 0,
+        world: int | str | Path | World = DEFAULT_WORLD_SEED,
         *,
         world_size: tuple[float, float] | None = None,
-        robots: int = 3,
+        robots: int = DEFAULT_ROBOTS,
         max_cycles: int = 1500,
-        merge: bool = True,
-        merge_interval: int = 50,
-        method: str = DEFAULT_METHOD,
-        coverage_target: float = 0.9,
+        team: TeamConfig | None = None,
+        coverage_target: float = DEFAULT_COVERAGE_TARGET,
         crop_size: int = 64,
         crop_resolution: float = 0.1,
-        simulation: SimulationConfig | None = None,
         render_mode: str | None = None,
         floors: Sequence[int] | None = None,
         observation_format: str = OBSERVATION_FORMATS[0],
@@ -245,29 +258,18 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
-        if not (_whole(robots) and robots >= 1):
-            raise ValueError(f"robots must be a whole number >= 1, got {robots!r}")
-        if not (_whole(max_cycles) and max_cycles >= 1):
-            raise ValueError(f"max_cycles must be a whole number >= 1, got {max_cycles!r}")
-        if not (_real(coverage_target) and 0.0 < coverage_target <= 1.0):
-            raise ValueError(f"coverage_target must be a number in (0, 1], got {coverage_target!r}")
-        if not isinstance(merge, bool | np.bool_):
-            raise ValueError(f"merge must be True or False, got {merge!r}")
-        if not (_real(crop_resolution) and crop_resolution > 0):
-            raise ValueError(
-                f"crop_resolution must be a positive number of metres, got {crop_resolution!r}"
+        whole_number(robots, "robots", minimum=1)
+        whole_number(max_cycles, "max_cycles", minimum=1, unit="steps")
+        real_number(coverage_target, "coverage_target", low=0.0, high=1.0, low_open=True)
+        real_number(crop_resolution, "crop_resolution", low=0.0, low_open=True, unit="metres")
+        if team is not None and not isinstance(team, TeamConfig):
+            raise SettingTypeError(
+                f"team must be a tomosim.team.TeamConfig, got {type(team).__name__}"
             )
-        if simulation is not None and not isinstance(simulation, SimulationConfig):
-            raise ValueError(
-                f"simulation must be a SimulationConfig, got {type(simulation).__name__}"
-            )
-        if not (_whole(crop_size) and crop_size >= 2 and crop_size % 2 == 0):
+        whole_number(crop_size, "crop_size", minimum=2, unit="cells")
+        if crop_size % 2:
             raise ValueError(f"crop_size must be an even number of cells >= 2, got {crop_size!r}")
-        if observation_format not in OBSERVATION_FORMATS:
-            raise ValueError(
-                f"observation_format must be one of {OBSERVATION_FORMATS}, "
-                f"got {observation_format!r}"
-            )
+        one_of(observation_format, OBSERVATION_FORMATS, what="observation_format")
         generated = isinstance(world, int | np.integer) or (
             isinstance(world, str) and world.strip().isdigit()
         )
@@ -277,24 +279,10 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 "own size: drop world_size"
             )
         if floors is not None:
-            if isinstance(world, World) or world != 0:
+            if isinstance(world, World) or world != DEFAULT_WORLD_SEED:
                 raise ValueError("give either world or floors, not both")
-            if (
-                isinstance(floors, str)
-                or not isinstance(floors, Sequence)
-                or len(floors) == 0
-                or not all(_whole(f) and f >= 0 for f in floors)
-            ):
-                raise ValueError(
-                    f"floors must be non-negative floor plan seeds, got {floors!r}; "
-                    "e.g. TRAINING_FLOORS or HELD_OUT_FLOORS"
-                )
-        self.team_config = TeamConfig(
-            merge=merge,
-            method=method,
-            merge_interval=merge_interval,
-            simulation=simulation if simulation is not None else SimulationConfig(),
-        )
+            _check_floors(floors)
+        self.team_config = team if team is not None else TeamConfig()
         resolution = self.team_config.simulation.mapping.resolution
         pool = round(crop_resolution / resolution)
         if pool < 1 or abs(pool * resolution - crop_resolution) > RESOLUTION_TOLERANCE * pool:
@@ -363,8 +351,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
         ``options`` are accepted for the API's sake and not used.
         """
         if seed is not None:
-            if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
-                raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+            whole_number(seed, "seed", minimum=0)
             self.np_random = np.random.default_rng(seed)
         elif self.np_random is None:
             self.np_random = np.random.default_rng()
@@ -544,6 +531,21 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.window.close()
 
 
+def _check_floors(floors: object) -> None:
+    """Raise naming ``floors`` unless it is a non-empty sequence of floor plan seeds."""
+    advice = "e.g. TRAINING_FLOORS or HELD_OUT_FLOORS"
+    if isinstance(floors, str) or not isinstance(floors, Sequence) or len(floors) == 0:
+        raise ValueError(f"floors must be non-negative floor plan seeds, got {floors!r}; {advice}")
+    # A range holds whole numbers between its ends: its ends say it all, where checking
+    # each of TRAINING_FLOORS' million seeds would take a while.
+    seeds = (floors[0], floors[-1]) if isinstance(floors, range) else floors
+    for k, seed in enumerate(seeds):
+        try:
+            whole_number(seed, f"floors[{k}]", minimum=0)
+        except ValueError as error:
+            raise type(error)(f"{error}; floors are floor plan seeds, {advice}") from None
+
+
 def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:
     """A copy of a round's info dictionary down to its mutable parts (tuples are shared)."""
     if not info:
@@ -557,6 +559,13 @@ def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:
 
 def parallel_env(**kwargs: Any) -> MultiRobotExplorationEnv:
     """The native parallel environment (arguments as in the module docstring)."""
+    loose = sorted(TEAM_SETTINGS & set(kwargs))
+    if loose:
+        given = ", ".join(f"{name}={kwargs[name]!r}" for name in loose)
+        raise TypeError(
+            f"{', '.join(loose)} {'is a team setting' if len(loose) == 1 else 'are team settings'}"
+            f": pass team=tomosim.team.TeamConfig({given})"
+        )
     return MultiRobotExplorationEnv(**kwargs)
 
 

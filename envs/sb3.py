@@ -35,6 +35,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv
 
 from envs.learning_metrics import episode_scalars
+from merging.validators import whole_number
 
 METRICS_PREFIX = "exploration"
 """The logger's section of the episode figures: ``exploration/team_coverage``, ..."""
@@ -52,7 +53,8 @@ class SB3VectorEnv(VecEnv):
     """
 
     def __init__(self, venv: Any, envs: int) -> None:
-        if not (isinstance(envs, int) and envs >= 1 and venv.num_envs % envs == 0):
+        whole_number(envs, "envs", minimum=1)
+        if venv.num_envs % envs:
             raise ValueError(
                 f"envs must be a whole number >= 1 dividing the {venv.num_envs} robot "
                 f"entries, got {envs!r}"

@@ -1,4 +1,4 @@
-"""The settings of the default (``"tomographic"``) merger, in one frozen object.
+"""The settings of the default (``"tomographic"``) merger, in one frozen object, and of linking.
 
 Every tuning constant of the default method lives here, grouped by the stage
 that uses it, each with its unit and the reason for its value. Pass a changed
@@ -14,62 +14,92 @@ copy to :func:`merging.estimate_transform`::
 The stage objects are used on their own too: the verification
 (:class:`VerifyParams`) and the confidence (:class:`ConfidenceParams`) are
 shared by every method, so that ``accepted`` means the same for all of them.
+How N grids are linked from their pairwise estimates, whatever the method, is
+set by :class:`LinkingParams` (:func:`merging.link_maps`, ``params=``).
+
+Each class checks its fields by their declared types when made
+(:mod:`merging.validators`): a count must be a whole number, a threshold a
+finite number, a fraction one in ``[0, 1]``.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
+import typing
 from dataclasses import dataclass, field, fields
 from typing import Any
+
+from merging.validators import SettingTypeError, boolean, real_number, whole_number
 
 # The dataclasses below are frozen and slotted; their defaults are the values the
 # benchmarks in scripts/ were run with.
 
 
-def _check_fields(settings: Any, *, positive: tuple[str, ...], fractions: tuple[str, ...]) -> None:
-    """Raise naming the field unless every field of ``settings`` is of its annotated kind.
+_FIELD_TYPES: dict[type, tuple[tuple[str, Any], ...]] = {}
+"""Per settings class, :func:`_field_types`' answer (resolving annotations takes a while)."""
+
+
+def _field_types(kind: type) -> tuple[tuple[str, Any], ...]:
+    """Each field of the settings class ``kind`` with its type, the annotation resolved."""
+    if kind not in _FIELD_TYPES:
+        hints = typing.get_type_hints(kind)
+        _FIELD_TYPES[kind] = tuple((item.name, hints[item.name]) for item in fields(kind))
+    return _FIELD_TYPES[kind]
+
+
+def _check_fields(
+    settings: Any, *, positive: tuple[str, ...] = (), fractions: tuple[str, ...] = ()
+) -> None:
+    """Raise naming the field unless every field of ``settings`` is of its declared type.
 
     Whole numbers (``int``, not bool) are at least 0, and at least 1 when
     ``positive`` names them; numbers (``float``) are finite, and above 0 when
     ``positive`` names them, within ``[0, 1]`` when ``fractions`` does; a
-    tuple of floats holds finite numbers (above 0 when named positive); a
-    stage's settings are an instance of their class. Without it a value of
-    the wrong kind fails deep inside the search, or a threshold above 1
-    refuses every match with a reason about the walls.
+    tuple holds entries of its declared types (as many as it declares, unless
+    it ends in ``...``), numbers checked as a ``float`` field is; a stage's
+    settings are an instance of their class. Without it a value of the wrong
+    kind fails deep inside the search, or a threshold above 1 refuses every
+    match with a reason about the walls.
     """
     owner = type(settings).__name__
-    for item in fields(settings):
-        name, kind, value = item.name, str(item.type), getattr(settings, item.name)
+    for name, kind in _field_types(type(settings)):
         where = f"{owner}.{name}"
-        if kind == "int":
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-                raise TypeError(f"{where} must be a whole number, got {value!r}")
-            if value < (1 if name in positive else 0):
-                least = "1" if name in positive else "0"
-                raise ValueError(f"{where} must be at least {least}, got {value!r}")
-        elif kind == "float" or kind.startswith("tuple[float"):
-            values = value if kind != "float" else (value,)
-            if kind != "float" and not (isinstance(value, tuple) and value):
-                raise TypeError(f"{where} must be a non-empty tuple of numbers, got {value!r}")
-            for entry in values:
-                if isinstance(entry, bool) or not isinstance(entry, numbers.Real):
-                    raise TypeError(f"{where} must hold numbers, got {value!r}")
-                number = float(entry)
-                if not math.isfinite(number) or (name in positive and number <= 0):
-                    kind_of = "positive" if name in positive else "finite"
-                    raise ValueError(f"{where} must be {kind_of}, got {value!r}")
-                if name in fractions and not 0.0 <= number <= 1.0:
-                    raise ValueError(f"{where} must lie within [0, 1], got {value!r}")
-        elif kind == "bool":
-            if not isinstance(value, bool):
-                raise TypeError(f"{where} must be True or False, got {value!r}")
-        elif (
-            kind in globals()
-            and isinstance(globals()[kind], type)
-            and not isinstance(value, globals()[kind])
-        ):
-            raise TypeError(f"{where} must be a {kind}, got {type(value).__name__}")
+        value = getattr(settings, name)
+        if typing.get_origin(kind) is tuple:
+            entries = typing.get_args(kind)
+            if not isinstance(value, tuple) or not value:
+                one = "number" if entries[0] is float else entries[0].__name__
+                raise SettingTypeError(
+                    f"{where} must be a tuple of at least one {one}, got {value!r}"
+                )
+            if entries[-1] is not Ellipsis and len(value) != len(entries):
+                raise ValueError(f"{where} must hold {len(entries)} entries, got {value!r}")
+            for k, entry in enumerate(value):
+                _check_value(entry, entries[0], f"{where}[{k}]", name, positive, fractions)
+        else:
+            _check_value(value, kind, where, name, positive, fractions)
+
+
+def _check_value(
+    value: object,
+    kind: Any,
+    where: str,
+    name: str,
+    positive: tuple[str, ...],
+    fractions: tuple[str, ...],
+) -> None:
+    """One value of :func:`_check_fields` against its type ``kind``."""
+    if kind is bool:
+        boolean(value, where)
+    elif kind is int:
+        whole_number(value, where, minimum=1 if name in positive else 0)
+    elif kind is float and name in fractions:
+        real_number(value, where, low=0.0, high=1.0)
+    elif kind is float and name in positive:
+        real_number(value, where, low=0.0, low_open=True)
+    elif kind is float:
+        real_number(value, where)
+    elif isinstance(kind, type) and not isinstance(value, kind):
+        raise SettingTypeError(f"{where} must be a {kind.__name__}, got {type(value).__name__}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,7 +170,7 @@ class TranslationParams:
     peaks: int = 3
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("coarse_cells", "peaks"), fractions=())
+        _check_fields(self, positive=("coarse_cells", "peaks"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -521,7 +551,7 @@ class RefineStage:
     local: bool
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("sigmas",), fractions=())
+        _check_fields(self, positive=("sigmas",))
 
 
 DEFAULT_STAGES = (
@@ -603,18 +633,15 @@ class TomographicParams:
     distinct_cells: float = 4.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=(), fractions=())
+        _check_fields(self)
         for name in ("stages", "mirror_stages"):
             _check_schedule(name, getattr(self, name))
 
 
 def _check_schedule(name: str, stages: tuple[RefineStage, ...]) -> None:
-    """Raise naming ``name`` unless ``stages`` is a schedule the refinement can walk."""
-    if not stages:
-        raise ValueError(f"{name} must hold at least one RefineStage")
+    """Raise naming ``name`` unless ``stages`` (RefineStages, at least one, as
+    :func:`_check_fields` has checked) is a schedule the refinement can walk."""
     for k, stage in enumerate(stages):
-        if not isinstance(stage, RefineStage):
-            raise TypeError(f"{name}[{k}] must be a RefineStage, got {type(stage).__name__}")
         if stage.refine < 1 or stage.iterations < 1 or stage.points < 3 or not stage.sigmas:
             raise ValueError(
                 f"{name}[{k}] must refine at least one candidate with at least one "
@@ -626,3 +653,40 @@ def _check_schedule(name: str, stages: tuple[RefineStage, ...]) -> None:
 
 DEFAULT_PARAMS = TomographicParams()
 """The settings :func:`merging.estimate_transform` uses unless given others."""
+
+
+@dataclass(frozen=True, slots=True)
+class LinkingParams:
+    """How far chained transforms may disagree before a pair is dropped as contradicting.
+
+    Used by :func:`merging.link_maps` and :func:`merging.merge_all`
+    (:mod:`merging.linking.forest`, steps 2 and 5) for any method.
+
+    Attributes
+    ----------
+    contradiction_cells : float
+        Cells RMS, over the grid's occupied cells, by which a pair must
+        disagree with a chain of others to be dropped: half a metre at
+        0.05 m. Transforms chained from right merges of drifting robots'
+        maps stay within a few cells of each other; a wrong match is off by
+        a room or by tens of degrees.
+    bent_contradiction_cells : float
+        The same for a comparison involving a pair vouched for as maps that
+        bend (separate sessions of a floor,
+        :func:`merging.linking.forest.bends`): each such pair is right only
+        to within the bending, so the three of a triangle of right pairs
+        miss by up to 47 cells RMS (42 on the Halmstad E5 floor's 122
+        accepted triangles, 47 on F5's 39: ``scripts/bench_cycles.py``),
+        where the wrong placements the bending evidence once accepted lay
+        285-910 cells off. Three metres at 0.05 m.
+    """
+
+    contradiction_cells: float = 10.0
+    bent_contradiction_cells: float = 60.0
+
+    def __post_init__(self) -> None:
+        _check_fields(self, positive=("contradiction_cells", "bent_contradiction_cells"))
+
+
+DEFAULT_LINKING = LinkingParams()
+"""The settings :func:`merging.link_maps` uses unless given others."""

@@ -54,6 +54,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import importlib.util
+import inspect
 import pstats
 import statistics
 import time
@@ -79,6 +80,17 @@ VECTOR_WARMUP_SECONDS = 2.0
 workers warm up meanwhile)."""
 ACTION_SEED_OFFSET = 1000
 """Offset between a run's reset seed and the seed of its action sampler."""
+
+
+def merging_off() -> dict[str, Any]:
+    """Environment arguments that switch merging off: ``team=TeamConfig(merge=False)``, or
+    ``merge=False`` for a checkout from before the ``team`` argument, timed with
+    ``PYTHONPATH``."""
+    if "team" in inspect.signature(exploration.MultiRobotExplorationEnv).parameters:
+        from tomosim.team import TeamConfig
+
+        return {"team": TeamConfig(merge=False)}
+    return {"merge": False}
 
 
 def random_actions(env: Any, generator: np.random.Generator) -> dict[str, Any]:
@@ -282,7 +294,7 @@ def main() -> None:
     for robots in args.robots:
         print(row(f"{robots} robots", *bench_single(robots, args.steps, args.repeats)), flush=True)
         if args.no_merge:
-            rates = bench_single(robots, args.steps, args.repeats, merge=False)
+            rates = bench_single(robots, args.steps, args.repeats, **merging_off())
             print(row(f"{robots} robots, no merging", *rates), flush=True)
     if args.vector:
         print(header("K environments, SuperSuit vector env (3 robots each)"))

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.validators import real_number, whole_number
 from tomosim.kernels.raycast import add_noise, cast_scan, scan_team
 from tomosim.worlds.world import as_segments
 
@@ -57,18 +58,14 @@ class LidarConfig:
     dropout_probability: float = 0.005
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.beams, int | np.integer) and self.beams >= 2):
-            raise ValueError(f"beams must be an integer of at least 2, got {self.beams!r}")
+        whole_number(self.beams, "beams", minimum=2)
         if not 0.0 < self.fov <= 2.0 * np.pi + FULL_CIRCLE_TOLERANCE:
             raise ValueError(f"fov must be in (0, 2 pi] radians, got {self.fov}")
-        if not (np.isfinite(self.max_range) and self.max_range > 0):
-            raise ValueError(f"max_range must be a positive number of metres, got {self.max_range}")
-        if not (np.isfinite(self.range_noise_std) and self.range_noise_std >= 0):
-            raise ValueError(f"range_noise_std must be >= 0 metres, got {self.range_noise_std}")
-        if not 0.0 <= self.dropout_probability < 1.0:
-            raise ValueError(
-                f"dropout_probability must be in [0, 1), got {self.dropout_probability}"
-            )
+        real_number(self.max_range, "max_range", low=0.0, low_open=True, unit="metres")
+        real_number(self.range_noise_std, "range_noise_std", low=0.0, unit="metres")
+        real_number(
+            self.dropout_probability, "dropout_probability", low=0.0, high=1.0, high_open=True
+        )
 
     @property
     def full_circle(self) -> bool:

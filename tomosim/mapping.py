@@ -29,13 +29,13 @@ to date cell by cell.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
+from merging.validators import boolean, real_number
 from tomosim.kernels.logodds import code_thresholds, update_grid
 from tomosim.lidar import Scan
 
@@ -93,8 +93,8 @@ class MappingConfig:
     carve_no_return: bool = True
 
     def __post_init__(self) -> None:
+        real_number(self.resolution, "resolution", low=0.0, low_open=True, unit="metres")
         for name in (
-            "resolution",
             "log_odds_hit",
             "log_odds_miss",
             "log_odds_min",
@@ -102,17 +102,8 @@ class MappingConfig:
             "initial_extent",
             "growth_padding",
         ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real):
-                raise TypeError(f"{name} must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value}")
-        if not isinstance(self.carve_no_return, bool):
-            raise TypeError(f"carve_no_return must be True or False, got {self.carve_no_return!r}")
-        if not self.resolution > 0:
-            raise ValueError(
-                f"resolution must be a positive number of metres, got {self.resolution}"
-            )
+            real_number(getattr(self, name), name)
+        boolean(self.carve_no_return, "carve_no_return")
         if not (self.log_odds_hit > 0 > self.log_odds_miss):
             raise ValueError(
                 f"need log_odds_hit > 0 > log_odds_miss, got "
@@ -151,14 +142,12 @@ def _check_scan(scan: Scan) -> None:
             f"a scan needs one angle per range, got angles of shape {angles.shape} and "
             f"ranges of shape {ranges.shape}"
         )
-    limit = scan.max_range
-    if isinstance(limit, bool) or not isinstance(limit, numbers.Real):
-        raise TypeError(f"a scan's max_range must be a number of metres, got {limit!r}")
-    if not (math.isfinite(limit) and limit > 0):
-        raise ValueError(
-            f"a scan's max_range must be a finite positive number of metres, got {limit} "
-            "(a beam without return is inf; the limit is where the map stops carving)"
-        )
+    try:
+        real_number(scan.max_range, "a scan's max_range", low=0.0, low_open=True, unit="metres")
+    except ValueError as error:  # SettingTypeError stays a TypeError too
+        raise type(error)(
+            f"{error} (a beam without return is inf; the limit is where the map stops carving)"
+        ) from None
 
 
 def integrate_rays(

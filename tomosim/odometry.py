@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.validators import real_number
+
 
 @dataclass(frozen=True)
 class OdometryConfig:
@@ -56,9 +58,7 @@ class OdometryConfig:
 
     def __post_init__(self) -> None:
         for name in ("translation_noise", "rotation_noise", "drift_per_metre"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {value}")
+            real_number(getattr(self, name), name, low=0.0)
 
 
 def relative_motion(before: ArrayLike, after: ArrayLike) -> NDArray[np.float64]:

@@ -23,6 +23,7 @@ import numpy as np
 import pymunk
 from numpy.typing import ArrayLike, NDArray
 
+from merging.validators import real_number, whole_number
 from tomosim.ray_geometry import distance_to_segments
 from tomosim.worlds.world import as_segments
 
@@ -78,17 +79,13 @@ class PhysicsConfig:
             "max_angular_acceleration",
             "collision_slop",
         ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value}")
+            real_number(getattr(self, name), name, low=0.0, low_open=True)
         if self.collision_slop >= 0.1 * self.robot_radius:
             raise ValueError(
                 f"collision_slop ({self.collision_slop} m) must be well below the "
                 f"robot radius ({self.robot_radius} m)"
             )
-        iterations = self.solver_iterations
-        if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-            raise ValueError(f"solver_iterations must be a whole number >= 1, got {iterations!r}")
+        whole_number(self.solver_iterations, "solver_iterations", minimum=1)
 
     def substeps(self, dt: float) -> int:
         """Substeps per step of ``dt`` seconds that keep travel below

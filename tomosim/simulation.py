@@ -22,11 +22,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
+from merging.validators import RngLike, as_generator, real_number
 from tomosim.lidar import Lidar, LidarConfig, Scan
 from tomosim.mapping import LogOddsMap, MappingConfig
 from tomosim.odometry import Odometry, OdometryConfig
 from tomosim.physics import Physics, PhysicsConfig
-from tomosim.worlds.world import NoRoomError, RngLike, World, as_generator
+from tomosim.worlds.world import NoRoomError, World
 
 START_CLEARANCE_MARGIN = 0.15
 """Metres of free space beyond the robot radius around a random start position."""
@@ -59,8 +60,7 @@ class SimulationConfig:
     mapping: MappingConfig = field(default_factory=MappingConfig)
 
     def __post_init__(self) -> None:
-        if isinstance(self.dt, bool) or not (math.isfinite(self.dt) and self.dt > 0):
-            raise ValueError(f"dt must be a positive number of seconds, got {self.dt!r}")
+        real_number(self.dt, "dt", low=0.0, low_open=True, unit="seconds")
         self.physics.substeps(self.dt)  # raises for a step the physics cannot take in time
 
 

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.api import as_generator
 from merging.grid import occupied_mask, validate_cells
 from merging.transforms import rigid_matrix, translation_matrix
+from merging.validators import as_generator, whole_number
 from merging.warp import warp_cells
 
 OVERLAP_RANGE = (0.15, 0.9)
@@ -104,8 +104,7 @@ def cut_window_pairs(
         ``[0, 1]``, or the map is too small or too empty to give such pairs.
     """
     cells = validate_cells(whole, name="whole")
-    if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 0:
-        raise ValueError(f"count must be a whole number of pairs >= 0, got {count!r}")
+    whole_number(count, "count", minimum=0, unit="pairs")
     for name, (low, high) in (("size_fraction", size_fraction), ("overlap_range", overlap_range)):
         if not 0.0 <= low <= high <= 1.0:
             raise ValueError(f"{name} must be (low, high) with 0 <= low <= high <= 1, got "

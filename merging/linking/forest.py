@@ -10,7 +10,8 @@ of them to trust together:
    dropped, the worst first; a lone triangle that does not close loses its
    least confident pair, the one that disagrees with the chain of the two
    more confident ones. "Disagrees" means by more than
-   :data:`CONTRADICTION_CELLS`, or :data:`BENT_CONTRADICTION_CELLS` when a
+   :attr:`~merging.params.LinkingParams.contradiction_cells`, or
+   :attr:`~merging.params.LinkingParams.bent_contradiction_cells` when a
    pair of the comparison was vouched for as maps that bend (:func:`bends`);
 3. it links the rest by a maximum spanning forest weighted by confidence
    (:func:`scipy.sparse.csgraph.minimum_spanning_tree` on ``2 - confidence``),
@@ -40,25 +41,15 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_array
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 
-from merging.api import DEFAULT_METHOD, RngLike, as_generator, check_method, estimate_transform
+from merging.api import DEFAULT_METHOD, check_method, estimate_transform
 from merging.grid import OccupancyGrid, occupied_cells, validate_cells
 from merging.linking.fusion import FusedMap, fuse
 from merging.linking.posegraph import adjust_poses
+from merging.params import DEFAULT_LINKING, LinkingParams
 from merging.result import MergeResult
 from merging.transforms import apply_transform, cells_to_metres, matrix_to_pose, wrap_angle
+from merging.validators import RngLike, as_generator
 
-CONTRADICTION_CELLS = 10.0
-"""Cells RMS, over the grid's occupied cells, by which a pair must disagree with a
-chain of others to be dropped: half a metre at 0.05 m. Transforms chained from
-right merges of drifting robots' maps stay within a few cells of each other; a
-wrong match is off by a room or by tens of degrees."""
-BENT_CONTRADICTION_CELLS = 60.0
-"""The same for a comparison involving a pair vouched for as maps that bend
-(separate sessions of a floor, :func:`bends`): each such pair is right only
-to within the bending, so the three of a triangle of right pairs miss by up to
-47 cells RMS (42 on the Halmstad E5 floor's 122 accepted triangles, 47 on
-F5's 39: ``scripts/bench_cycles.py``), where the wrong placements the
-bending evidence once accepted lay 285-910 cells off. Three metres at 0.05 m."""
 MAX_CHECK_POINTS = 2000
 """Occupied cells of a grid used to measure how far two transforms of it differ."""
 TREE_WEIGHT_OFFSET = 2.0
@@ -233,7 +224,10 @@ class MergeAllResult:
 
 
 def link_maps(
-    grids: Sequence[OccupancyGrid | NDArray[Any]], pairs: Mapping[Pair, MergeResult]
+    grids: Sequence[OccupancyGrid | NDArray[Any]],
+    pairs: Mapping[Pair, MergeResult],
+    *,
+    params: LinkingParams = DEFAULT_LINKING,
 ) -> Linking:
     """Link grids from their pairwise estimates (steps 1-5 of the module docstring).
 
@@ -245,20 +239,24 @@ def link_maps(
         ``(i, j) -> MergeResult`` for any pairs ``i < j`` of grid indices (a
         missing pair counts as not accepted); the matrix takes grid ``j``'s
         cells to grid ``i``'s, and ``matrix_metres`` frame ``j`` to frame ``i``.
+    params : LinkingParams, optional
+        How far chained transforms may disagree (default: its documented defaults).
 
     Returns
     -------
     Linking
     """
+    if not isinstance(params, LinkingParams):
+        raise TypeError(f"params must be a LinkingParams, got {type(params).__name__}")
     cells = _check_grids(grids)
     count = len(cells)
     given = _check_pairs(pairs, count)
     points = [_check_points(c) for c in cells]
     usable = {key: r for key, r in given.items() if r.accepted and np.all(np.isfinite(r.matrix))}
-    trusted, notes = consistent_pairs(usable, points)
+    trusted, notes = consistent_pairs(usable, points, params=params)
     tree = _spanning_forest(count, trusted)
     roots, transforms = _compose(count, tree, trusted)
-    late, late_notes = _contradicting_tree(trusted, tree, roots, transforms, points)
+    late, late_notes = _contradicting_tree(trusted, tree, roots, transforms, points, params)
     kept = {key: r for key, r in trusted.items() if key not in late}
     transforms, adjusted = _adjust_bent_groups(roots, transforms, kept, points)
     used = tree + tuple(key for key in kept if key not in tree and roots[key[0]] in adjusted)
@@ -286,6 +284,7 @@ def merge_all(
     *,
     method: str = DEFAULT_METHOD,
     rng: RngLike = None,
+    linking: LinkingParams = DEFAULT_LINKING,
     **options: Any,
 ) -> MergeAllResult:
     """Estimate the transforms between N grids, link them and fuse the main group.
@@ -304,6 +303,8 @@ def merge_all(
         Passed to :func:`~merging.api.estimate_transform`.
     rng : numpy.random.Generator, int or None
         Seeds one independent stream per pair.
+    linking : LinkingParams, optional
+        Passed to :func:`link_maps` as its ``params``.
     **options
         Passed to ``estimate_transform``.
 
@@ -325,8 +326,8 @@ def merge_all(
         (i, j): estimate_transform(grids[i], grids[j], method=method, rng=stream, **options)
         for (i, j), stream in zip(keys, streams, strict=True)
     }
-    linking = link_maps(grids, pairs)
-    return MergeAllResult(linking, fuse_group(grids, linking, linking.main))
+    linked = link_maps(grids, pairs, params=linking)
+    return MergeAllResult(linked, fuse_group(grids, linked, linked.main))
 
 
 def fuse_group(
@@ -394,13 +395,16 @@ def _disagreement(
 
 
 def consistent_pairs(
-    pairs: Mapping[Pair, MergeResult], points: Sequence[NDArray[np.float64]]
+    pairs: Mapping[Pair, MergeResult],
+    points: Sequence[NDArray[np.float64]],
+    *,
+    params: LinkingParams = DEFAULT_LINKING,
 ) -> tuple[dict[Pair, MergeResult], list[str]]:
     """Drop pairs that contradict the others around triangles of maps (step 2).
 
     For every triangle ``i < j < k`` of usable pairs, the chain ``(i, j) @ (j, k)``
     is compared with ``(i, k)`` over grid ``k``'s occupied cells: the triangle
-    *closes* within :data:`CONTRADICTION_CELLS` (:data:`BENT_CONTRADICTION_CELLS`
+    *closes* within ``params.contradiction_cells`` (``params.bent_contradiction_cells``
     when one of its pairs :func:`bends`), or it does not. A pair's score
     is the number of its triangles that do not close minus those that do.
     While some pair scores above zero, the one scoring highest (ties: the least
@@ -427,7 +431,7 @@ def consistent_pairs(
                     chain = kept[(i, j)].matrix @ kept[(j, k)].matrix
                     off = _disagreement(chain, kept[(i, k)].matrix, points[k])
                     triangle = (kept[(i, j)], kept[(j, k)], kept[(i, k)])
-                    vote = 1 if off > _tolerance(*triangle) else -1
+                    vote = 1 if off > _tolerance(params, *triangle) else -1
                     for key, other in (((i, j), k), ((j, k), i), ((i, k), j)):
                         score[key] += vote
                         if vote > 0 and off > worst.get(key, (0.0, 0))[0]:
@@ -459,11 +463,11 @@ def bends(result: MergeResult) -> bool:
     return robust is not None and close is not None and robust > close
 
 
-def _tolerance(*results: MergeResult) -> float:
+def _tolerance(params: LinkingParams, *results: MergeResult) -> float:
     """Cells RMS within which transforms chained from ``results`` must agree."""
     if any(bends(result) for result in results):
-        return BENT_CONTRADICTION_CELLS
-    return CONTRADICTION_CELLS
+        return params.bent_contradiction_cells
+    return params.contradiction_cells
 
 
 def _adjust_bent_groups(
@@ -541,6 +545,7 @@ def _contradicting_tree(
     roots: tuple[int, ...],
     transforms: tuple[NDArray[np.float64], ...],
     points: Sequence[NDArray[np.float64]],
+    params: LinkingParams,
 ) -> tuple[tuple[Pair, ...], list[str]]:
     """Pairs off the forest whose estimate disagrees with the forest's (step 5)."""
     dropped: list[Pair] = []
@@ -551,7 +556,7 @@ def _contradicting_tree(
         implied = np.linalg.inv(transforms[i]) @ transforms[j]
         off = _disagreement(implied, result.matrix, points[j])
         group = [pairs[key] for key in tree if roots[key[0]] == roots[i]]
-        if off > _tolerance(result, *group):
+        if off > _tolerance(params, result, *group):
             dropped.append((i, j))
             turn = np.degrees(abs(float(wrap_angle(matrix_to_pose(implied)[2] - result.rotation))))
             notes.append(

@@ -30,6 +30,7 @@ from merging.paper.monte_carlo import monte_carlo_optimise, search_space
 from merging.paper.sinogram import Sinogram, map_centre, sinogram
 from merging.result import Hypothesis, MergeResult
 from merging.transforms import rigid_matrix, translation_matrix
+from merging.validators import boolean, whole_number
 
 PAPER_ANGLES_DEG = np.arange(181.0)
 """0° <= α <= 180° (eqs. 4-5, 9), inclusive: eqs. (12) and (16) use α' = 180°."""
@@ -167,11 +168,8 @@ def paper_merge(
         ("translation_samples", translation_samples),
         ("saliency_points", saliency_points),
     ):
-        whole = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
-        if not (whole and value >= 1):
-            raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    if not isinstance(optimise, bool | np.bool_):
-        raise ValueError(f"optimise must be True or False, got {optimise!r}")
+        whole_number(value, name, minimum=1)
+    boolean(optimise, "optimise")
     timings: dict[str, float] = {}
     clock = time.perf_counter()
     sino1 = sinogram(cells1, angles_deg=PAPER_ANGLES_DEG)

@@ -27,6 +27,7 @@ from typing import Any
 
 from exploration_study.worlds import StudyWorld
 from tomosim.sweep import NO_MERGE, ResultsFile, SweepPlan, run_sweep
+from tomosim.team import CommsConfig, TeamConfig
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,7 +50,7 @@ def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
         "worlds": (world.spec,),
         "seeds": grid.seeds,
         "steps": world.steps,
-        "comm_range": grid.comm_range,
+        "team": TeamConfig(comms=CommsConfig(grid.comm_range)),
     }
     out = []
     teams = tuple(n for n in grid.robots if n > 1)

@@ -9,6 +9,7 @@ import pytest
 
 from envs import multi_robot_exploration_v0 as exploration
 from envs.learning_metrics import EPISODE_SCALARS, episode_scalars
+from tomosim.team import TeamConfig
 
 SMALL = {"world_size": (12.0, 9.0), "robots": 2}
 """A small floor with two robots: quick to step."""
@@ -28,7 +29,7 @@ def run(env: exploration.MultiRobotExplorationEnv, action: np.ndarray, seed: int
 
 
 def test_episode_figures_add_up_from_the_steps() -> None:
-    env = exploration.parallel_env(**SMALL, max_cycles=60, merge_interval=10)
+    env = exploration.parallel_env(**SMALL, max_cycles=60, team=TeamConfig(merge_interval=10))
     steps = run(env, TURN, seed=3)
     positions = np.array([p for _, p in steps])
     travelled = np.hypot(*np.diff(positions, axis=0).transpose(2, 0, 1)).sum()

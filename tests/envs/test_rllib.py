@@ -173,8 +173,11 @@ def test_a_tiny_training_reports_metrics_curves_and_tensorboard(tmp_path: Path) 
 
 TUNE_RUN = """
 import sys
+import ray
 from ray import tune
 from envs.rllib import ppo_config
+
+ray.init(address="local", include_dashboard=False)  # never a cluster recorded on the machine
 
 config = (
     ppo_config({"world_size": (12.0, 9.0), "robots": 2, "max_cycles": 40})

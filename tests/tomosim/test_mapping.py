@@ -154,7 +154,7 @@ def test_config_is_validated() -> None:
     ],
 )
 def test_config_refuses_values_that_are_not_finite(settings: dict[str, float]) -> None:
-    with pytest.raises(ValueError, match=f"{next(iter(settings))} must be finite"):
+    with pytest.raises(ValueError, match=f"{next(iter(settings))} must be a finite number"):
         MappingConfig(**settings)
 
 
@@ -162,7 +162,9 @@ def test_config_refuses_a_grid_no_memory_holds() -> None:
     # 5000 given as cells, not metres: 100000 cells a side at 0.05 m.
     with pytest.raises(ValueError, match=r"initial_extent of 5000\.0 m is 100000 cells"):
         MappingConfig(initial_extent=5000.0)
-    with pytest.raises(TypeError, match=r"resolution must be a number, got '0\.05'"):
+    with pytest.raises(
+        TypeError, match=r"resolution must be a positive number of metres, got '0\.05'"
+    ):
         MappingConfig(resolution="0.05")  # type: ignore[arg-type]
     assert MappingConfig(resolution=np.float32(0.1)).resolution == np.float32(0.1)
 
@@ -189,8 +191,8 @@ def test_hits_at_the_edge_of_the_grid_grow_it_first() -> None:
     ("angles", "ranges", "max_range", "match"),
     [
         (2, np.full(2000, 3.0), 8.0, "one angle per range"),  # read past the angles
-        (8, np.full(8, np.inf), np.nan, "max_range must be a finite"),
-        (8, np.full(8, np.inf), np.inf, "max_range must be a finite"),
+        (8, np.full(8, np.inf), np.nan, "max_range must be a positive number of metres"),
+        (8, np.full(8, np.inf), np.inf, "max_range must be a positive number of metres"),
         (None, np.full(8, 3.0), 8.0, "angle of a scan must be finite"),
         (8, np.full(8, -1.0), 8.0, "within \\[0, max_range\\]"),
         (8, np.full(8, 1e30), 8.0, "within \\[0, max_range\\]"),

@@ -33,6 +33,7 @@ from tomosim.commands import (
 from tomosim.commands.explore import MAX_ROBOTS, check_episode_options
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
+from tomosim.commands.team_options import add_team_arguments, team_config
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, WorkerDied, run_sweep
@@ -76,10 +77,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"most steps of 0.1 s per episode (default {plan.steps})",
     )  # fmt: skip
     parser.add_argument(
-        "--merge-interval", type=int, default=plan.merge_interval,
-        help=f"steps between merge rounds (default {plan.merge_interval})",
-    )  # fmt: skip
-    parser.add_argument(
         "--coverage-target", type=float, default=plan.coverage_target,
         help="an episode ends when the team knows this fraction of the free space "
         f"(default {plan.coverage_target})",
@@ -88,14 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--world-size", nargs=2, type=float, metavar=("WIDTH", "HEIGHT"),
         help="size in metres of generated floor plans (default 30 20)",
     )  # fmt: skip
-    parser.add_argument(
-        "--comm-range", type=float, metavar="METRES",
-        help="robots talk only within this range, or through teammates in range "
-        "(default unlimited)",
-    )  # fmt: skip
-    parser.add_argument(
-        "--line-of-sight", action="store_true", help="walls block communication"
-    )  # fmt: skip
+    add_team_arguments(parser)
     parser.add_argument(
         "--out", type=Path, required=True,
         help="CSV file the rows go to, one per finished episode; its folder must exist",
@@ -155,11 +145,9 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
             methods=tuple(args.methods),
             seeds=tuple(args.seeds),
             steps=args.steps,
-            merge_interval=args.merge_interval,
             coverage_target=args.coverage_target,
             world_size=None if args.world_size is None else tuple(args.world_size),
-            comm_range=args.comm_range,
-            line_of_sight=args.line_of_sight,
+            team=team_config(args),
             record_dir=args.record_dir,
         )
     except ValueError as exc:

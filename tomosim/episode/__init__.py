@@ -6,7 +6,13 @@
 * :mod:`tomosim.episode.outcome`: :class:`EpisodeMetrics`, what it returns.
 """
 
-from tomosim.episode.config import DEFAULT_WORLD_SEED, EpisodeConfig, load_world
+from tomosim.episode.config import (
+    DEFAULT_COVERAGE_TARGET,
+    DEFAULT_ROBOTS,
+    DEFAULT_WORLD_SEED,
+    EpisodeConfig,
+    load_world,
+)
 from tomosim.episode.outcome import EpisodeMetrics, MergeRound, odometry_drift
 from tomosim.episode.runner import (
     STOP_FINISHED,
@@ -17,6 +23,8 @@ from tomosim.episode.runner import (
 )
 
 __all__ = [
+    "DEFAULT_COVERAGE_TARGET",
+    "DEFAULT_ROBOTS",
     "DEFAULT_WORLD_SEED",
     "STOP_FINISHED",
     "STOP_STEPS",

@@ -28,7 +28,7 @@ from tomosim.episode.config import EpisodeConfig, load_world
 from tomosim.episode.exploration_tracker import ExplorationTracker
 from tomosim.episode.outcome import EpisodeMetrics, MergeRound, odometry_drift
 from tomosim.exploration import TeamExplorer
-from tomosim.team.session import TeamConfig, TeamSession
+from tomosim.team.session import TeamSession
 
 if TYPE_CHECKING:
     from tomosim.recording import Recorder
@@ -68,14 +68,7 @@ def run_episode(
     """
     clock = time.perf_counter()
     world = load_world(config.world, size=config.world_size)
-    team = TeamConfig(
-        merge=config.merge,
-        method=config.method,
-        merge_interval=config.merge_interval,
-        comms=config.comms(),
-        simulation=config.simulation,
-    )
-    session = TeamSession(world, robots=config.robots, config=team, rng=config.seed)
+    session = TeamSession(world, robots=config.robots, config=config.team, rng=config.seed)
     settings = config.settings(world)
     owned = None
     if recorder is None and config.record is not None:

@@ -21,6 +21,7 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from merging.grid import OCCUPIED_THRESHOLD, OccupancyGrid
+from merging.validators import real_number
 from tomosim.exploration.frontiers import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL, coarsen
 
 CROP_MARGIN_CELLS = 2
@@ -69,11 +70,9 @@ class PlannerConfig:
                 f"{self.free_below} and {self.occupied_from}"
             )
         for name in ("resolution", "robot_radius"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive (metres), got {getattr(self, name)}")
+            real_number(getattr(self, name), name, low=0.0, low_open=True, unit="metres")
         for name in ("inflation_margin", "wall_penalty_distance", "wall_penalty"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
+            real_number(getattr(self, name), name, low=0.0)
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
+from merging.validators import real_number, whole_number
 from tomosim.exploration.choosers import make_chooser
 from tomosim.exploration.controller import ControllerConfig, PathFollower
 from tomosim.exploration.frontiers import frontier_clusters
@@ -100,8 +101,7 @@ class ExplorationConfig:
 
     def __post_init__(self) -> None:
         for name in ("min_frontier_size", "replan_interval", "stuck_steps"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
+            whole_number(getattr(self, name), name, minimum=1)
         for name in (
             "size_bonus",
             "stuck_distance",
@@ -109,10 +109,8 @@ class ExplorationConfig:
             "start_search_radius",
             "claim_radius",
         ):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
-        if self.recovery_steps < 0:
-            raise ValueError(f"recovery_steps must be >= 0, got {self.recovery_steps}")
+            real_number(getattr(self, name), name, low=0.0)
+        whole_number(self.recovery_steps, "recovery_steps", minimum=0)
 
 
 def _start_cell(

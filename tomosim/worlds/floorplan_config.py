@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import dataclass
+
+from merging.validators import real_number
 
 MIN_EXTENT_ROOMS = 2
 """The building must be at least this many smallest rooms wide."""
@@ -54,10 +54,7 @@ class FloorplanConfig:
             if isinstance(value, tuple) and len(value) != 2:
                 raise ValueError(f"{name} must be a range (low, high), got {value!r}")
             for number in value if isinstance(value, tuple) else (value,):
-                if isinstance(number, bool) or not isinstance(number, numbers.Real):
-                    raise TypeError(f"{name} must be a number or a range of two, got {value!r}")
-                if not math.isfinite(number):
-                    raise ValueError(f"{name} must be finite, got {value}")
+                real_number(number, name)
         for name in (
             "width",
             "height",
@@ -66,9 +63,7 @@ class FloorplanConfig:
             "min_room_depth",
             "robot_clearance",
         ):
-            value = getattr(self, name)
-            if not value > 0:
-                raise ValueError(f"{name} must be positive (metres), got {value}")
+            real_number(getattr(self, name), name, low=0.0, low_open=True, unit="metres")
         if self.margin < self.wall_thickness:
             raise ValueError(
                 f"margin ({self.margin} m) must be at least the wall thickness "

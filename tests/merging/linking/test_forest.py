@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from merging import MergeResult, OccupancyGrid, cells_to_metres, link_maps, merge_all
-from merging.linking.forest import CONTRADICTION_CELLS, MergeAllResult, fuse_group
+from merging.linking.forest import MergeAllResult, fuse_group
+from merging.params import DEFAULT_LINKING, LinkingParams
 from merging.transforms import apply_transform, rigid_matrix
 from merging.warp import warp_cells
 from tests.merging.linking.test_fusion import EXACT, random_room_map, translation
@@ -46,9 +47,11 @@ def table_pairs(table: dict[tuple[int, int], tuple]) -> dict[tuple[int, int], Me
     return pairs
 
 
-def link_table(grids: list, table: dict[tuple[int, int], tuple]) -> MergeAllResult:
+def link_table(
+    grids: list, table: dict[tuple[int, int], tuple], params: LinkingParams = DEFAULT_LINKING
+) -> MergeAllResult:
     """What merge_all returns when the pairwise estimates are ``table``'s."""
-    linking = link_maps(grids, table_pairs(table))
+    linking = link_maps(grids, table_pairs(table), params=params)
     return MergeAllResult(linking, fuse_group(grids, linking, linking.main))
 
 
@@ -178,12 +181,26 @@ def test_a_confident_wrong_pair_is_outvoted_around_cycles() -> None:
 def test_a_small_disagreement_is_not_a_contradiction() -> None:
     """Chained transforms of drifting maps differ by a few cells; nothing is dropped."""
     grids = robot_grids()
-    nudge = translation(0.3 * CONTRADICTION_CELLS, 0.0)
+    nudge = translation(0.3 * LinkingParams().contradiction_cells, 0.0)
     table = {(0, 1): (truth(0, 1), 0.9, True), (1, 2): (truth(1, 2), 0.9, True)}
     table[(0, 2)] = (truth(0, 2) @ nudge, 0.5, True)
     result = link_table(grids, table)
     assert result.linking.dropped == ()
     assert result.tree == ((0, 1), (1, 2))
+
+
+def test_the_contradiction_tolerance_is_a_setting() -> None:
+    """The same nudge, beyond a tolerance set below it, drops the least confident pair."""
+    grids = robot_grids()
+    shift = 0.3 * LinkingParams().contradiction_cells
+    table = {(0, 1): (truth(0, 1), 0.9, True), (1, 2): (truth(1, 2), 0.9, True)}
+    table[(0, 2)] = (truth(0, 2) @ translation(shift, 0.0), 0.5, True)
+    strict = LinkingParams(contradiction_cells=shift / 2)
+    assert link_table(grids, table, strict).linking.dropped == ((0, 2),)
+    with pytest.raises(ValueError, match="contradiction_cells must be a positive number"):
+        LinkingParams(contradiction_cells=0.0)
+    with pytest.raises(TypeError, match="params must be a LinkingParams"):
+        link_maps(grids, table_pairs(table), params=0.5)  # type: ignore[arg-type]
 
 
 def test_every_group_gets_frames_into_its_root() -> None:

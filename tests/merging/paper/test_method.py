@@ -95,7 +95,7 @@ def test_paper_method_rejects_bad_sample_counts(building: np.ndarray) -> None:
     with pytest.raises(ValueError, match="rotation_samples"):
         merging.estimate_transform(building, building, method="paper", rotation_samples=0)
     for bad in (2.5, True, "3"):
-        with pytest.raises(ValueError, match="saliency_points must be a positive integer"):
+        with pytest.raises(ValueError, match="saliency_points must be a whole number >= 1"):
             merging.estimate_transform(building, building, method="paper", saliency_points=bad)
     with pytest.raises(ValueError, match="optimise must be True or False"):
         merging.estimate_transform(building, building, method="paper", optimise="no")

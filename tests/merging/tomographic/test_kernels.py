@@ -243,15 +243,33 @@ def test_params_validate_the_schedule() -> None:
     ("make", "error", "message"),
     [
         (lambda: TomographicParams(confidence="x"), TypeError, "confidence must be a Confidence"),
-        (lambda: VerifyParams(screen_stride=0), ValueError, "screen_stride must be at least 1"),
-        (lambda: TranslationParams(coarse_cells=0), ValueError, "coarse_cells must be at least 1"),
+        (
+            lambda: VerifyParams(screen_stride=0),
+            ValueError,
+            "screen_stride must be a whole number >= 1",
+        ),
+        (
+            lambda: TranslationParams(coarse_cells=0),
+            ValueError,
+            "coarse_cells must be a whole number >= 1",
+        ),
         (lambda: VerifyParams(near_radius=1.5), TypeError, "near_radius must be a whole number"),
-        (lambda: ConfidenceParams(accept="0.7"), TypeError, "accept must hold numbers"),
-        (lambda: ConfidenceParams(accept=1.5), ValueError, r"accept must lie within \[0, 1\]"),
-        (lambda: ConfidenceParams(accept=float("nan")), ValueError, "accept must be finite"),
-        (lambda: RobustParams(widths=()), TypeError, "widths must be a non-empty tuple"),
-        (lambda: RefineStage(1, 1, (0.0,), 1, 3, True), ValueError, "sigmas must be positive"),
+        (lambda: ConfidenceParams(accept="0.7"), TypeError, r"accept must be a number in \[0, 1\]"),
+        (lambda: ConfidenceParams(accept=1.5), ValueError, r"accept must be a number in \[0, 1\]"),
+        (lambda: ConfidenceParams(accept=float("nan")), ValueError, "accept must be a number in"),
+        (
+            lambda: RobustParams(widths=()),
+            TypeError,
+            "widths must be a tuple of at least one number",
+        ),
+        (lambda: RobustParams(widths=(1.0,)), ValueError, "widths must hold 7 entries"),
+        (
+            lambda: RefineStage(1, 1, (0.0,), 1, 3, True),
+            ValueError,
+            r"sigmas\[0\] must be a positive number",
+        ),
         (lambda: TranslationParams(peaks=True), TypeError, "peaks must be a whole number"),
+        (lambda: RefineStage(1, 1, (1.0,), 1, 3, 1), TypeError, "local must be True or False"),
     ],
 )
 def test_params_name_a_setting_of_the_wrong_kind(make, error, message: str) -> None:

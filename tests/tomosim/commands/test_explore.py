@@ -533,3 +533,18 @@ def test_the_settings_line_names_the_policy_and_the_radios_reach() -> None:
         settings_line(plain)
         == "world floorplan seed=0, 3 robots, nearest policy, no merging, seed 3"
     )
+
+
+def test_the_command_line_builds_the_episode_s_team() -> None:
+    from tomosim.cli import build_parser
+    from tomosim.commands.explore import build_config
+    from tomosim.team import CommsConfig, TeamConfig
+
+    argv = ["explore", "--merge-interval", "30", "--method", "oracle", "--comm-range", "4",
+            "--line-of-sight", "--no-record"]  # fmt: skip
+    config = build_config(build_parser().parse_args(argv))
+    assert config.team == TeamConfig(
+        method="oracle", merge_interval=30, comms=CommsConfig(4.0, line_of_sight=True)
+    )
+    plain = build_config(build_parser().parse_args(["explore", "--no-merge"]))
+    assert plain.team == TeamConfig(merge=False)  # every other setting the team's default

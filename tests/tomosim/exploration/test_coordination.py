@@ -16,7 +16,7 @@ from tomosim.exploration import (
     chooser_names,
     make_chooser,
 )
-from tomosim.exploration.assignment import claimed_cluster
+from tomosim.exploration.assignment import AssignmentChooser, claimed_cluster
 from tomosim.exploration.utility import utilities, visibility
 from tomosim.frames import pose_matrix
 from tomosim.team import TeamConfig, TeamSession
@@ -118,8 +118,10 @@ def test_assignment_leaves_a_claimed_cluster_to_its_teammate() -> None:
     chooser = make_chooser("assignment")
     assert chooser.choose([near, far], [], size_bonus=0.5) == (0, 0)
     busy = Teammate(1, np.array([2.0, 0.0]), target=np.array([1.2, 0.1]))
-    assert claimed_cluster([near, far], busy.target) == 0  # type: ignore[arg-type]
+    assert claimed_cluster([near, far], busy.target, radius=1.0) == 0  # type: ignore[arg-type]
     assert chooser.choose([near, far], [busy], size_bonus=0.5) == (1, 0)
+    # The claim radius is the chooser's setting: within 0.1 m the target claims nothing.
+    assert AssignmentChooser(claim_radius=0.1).choose([near, far], [busy], size_bonus=0.5) == (0, 0)
     # An idle teammate nearer to the near cluster takes it by cost; the robot the far one.
     idle = Teammate(1, np.array([0.5, 0.0]))
     assert chooser.choose([near, far], [idle], size_bonus=0.5) == (1, 0)

@@ -237,7 +237,12 @@ def test_team_series_are_named_and_drawn_in_their_robots_colours(
 def test_a_run_without_merging_has_no_merge_views(tmp_path: Path) -> None:
     path = tmp_path / "alone.rrd"
     config = EpisodeConfig(
-        world=2, world_size=SMALL_FLOOR, robots=2, steps=5, merge=False, record=path
+        world=2,
+        world_size=SMALL_FLOOR,
+        robots=2,
+        steps=5,
+        record=path,
+        team=TeamConfig(merge=False),
     )
     run_episode(config)
     views = recorded_views(path)
@@ -316,7 +321,9 @@ def test_maps_are_logged_when_changed_not_every_step(
 
 def test_a_failed_episode_keeps_what_it_recorded(tmp_path: Path) -> None:
     path = tmp_path / "failed.rrd"
-    config = EpisodeConfig(world=4, world_size=SMALL_FLOOR, robots=2, merge_interval=5, record=path)
+    config = EpisodeConfig(
+        world=4, world_size=SMALL_FLOOR, robots=2, record=path, team=TeamConfig(merge_interval=5)
+    )
 
     def fail_at_step_12(step: int, coverage: float) -> None:
         if step == 12:
@@ -481,6 +488,8 @@ def test_spawning_without_a_display_is_refused(
         ({"world_size": (0.0, 0.0)}, "world_size must be"),
         ({"world": None}, "world must be a seed or a map file path"),
         ({"coverage_target": "0.5"}, "coverage_target must be a number"),
+        ({"team": {"merge": False}}, "team must be a TeamConfig"),
+        ({"seed": -1}, "seed must be a whole number >= 0"),
     ],
 )
 def test_episode_settings_are_checked_when_made(settings, match) -> None:

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -15,10 +16,18 @@ import pytest
 from merging import available_methods
 from tests.tomosim.commands.cli_support import assert_one_line_error
 from tomosim.cli import main
+from tomosim.episode import EpisodeConfig
 from tomosim.sweep import ROW_FIELDS, ResultsFile, SweepPlan, run_sweep
 from tomosim.sweep.rows import TIMING_FIELDS
+from tomosim.team import CommsConfig, TeamConfig
 
-SMALL = {"world_size": (15.0, 10.0), "steps": 120, "merge_interval": 40}
+MERGE_INTERVAL = 40
+"""Steps between the merge rounds of the small episodes."""
+SMALL = {
+    "world_size": (15.0, 10.0),
+    "steps": 120,
+    "team": TeamConfig(merge_interval=MERGE_INTERVAL),
+}
 """A small floor and short episodes: about a second each."""
 KILL_TIMEOUT_S = 240.0
 """Longest wait for the first row of the sweep that is killed."""
@@ -47,8 +56,19 @@ def test_plan_is_the_full_grid_in_a_fixed_order() -> None:
     assert len(keys) == len(set(keys)) == 16
     assert keys[0] == "0|2|nearest|tomographic|5" and keys[-1] == "2|3|utility|none|5"
     no_merge = [e.config for e in plan.episodes() if e.key.endswith("|none|5")]
-    assert all(not config.merge for config in no_merge)
+    assert all(not config.team.merge for config in no_merge)
     assert [e.config.policy for e in plan.episodes()][:4] == ["nearest"] * 2 + ["utility"] * 2
+
+
+def test_every_episode_has_the_plan_s_team_with_its_own_method() -> None:
+    team = TeamConfig(
+        merge_interval=40, confirmations=1, comms=CommsConfig(5.0, line_of_sight=True)
+    )
+    plan = SweepPlan(methods=("oracle", "none"), team=team)
+    oracle, alone = (e.config.team for e in plan.episodes())
+    assert oracle == replace(team, method="oracle") and alone == replace(team, merge=False)
+    assert plan.settings()["merge_interval"] == 40 and plan.settings()["comm_range"] == "5 los"
+    assert SweepPlan().episodes()[0].config == EpisodeConfig(world="0")  # the episode's defaults
 
 
 @pytest.mark.parametrize(
@@ -60,11 +80,12 @@ def test_plan_is_the_full_grid_in_a_fixed_order() -> None:
         ("robots", (2, 2), "twice"),
         ("worlds", "12", "must be a tuple"),  # not worlds "1" and "2"
         ("worlds", ("0", 0), "twice"),  # one key for two episodes
-        ("robots", (0,), "whole numbers >= 1"),
-        ("seeds", (-1,), "whole numbers >= 0"),
+        ("robots", (0,), r"robots\[0\] must be a whole number >= 1"),
+        ("seeds", (-1,), r"seeds\[0\] must be a whole number >= 0"),
         ("steps", 0, "steps must be a whole number >= 1"),
         ("coverage_target", 2.0, r"coverage_target must be a number in \(0, 1\]"),
-        ("world_size", (-1.0, 5.0), "world_size must be two positive"),
+        ("world_size", (-1.0, 5.0), r"world_size must be \(width, height\), two positive"),
+        ("team", {"merge_interval": 40}, "team must be a TeamConfig"),
     ],
 )
 def test_plan_rejects_bad_values(field: str, value: tuple, message: str) -> None:
@@ -98,7 +119,7 @@ def test_killed_sweep_resumes_without_repeating(tmp_path: Path) -> None:
         sys.executable, "-c", "from tomosim.cli import main; raise SystemExit(main())",
         "sweep", "--worlds", "1", "--robots", "2", "--methods", "tomographic", "none",
         "--seeds", "0", "1", "2", "--steps", str(SMALL["steps"]), "--merge-interval",
-        str(SMALL["merge_interval"]), "--world-size", "15", "10", "--workers", "1",
+        str(MERGE_INTERVAL), "--world-size", "15", "10", "--workers", "1",
         "--out", str(out),
     ]  # fmt: skip
     process = subprocess.Popen(
@@ -312,7 +333,7 @@ def test_running_episodes_report_their_steps(tmp_path: Path) -> None:
         (["--world-size", "0", "9"], ["--world-size must be two positive numbers"], 2),
         (["--world-size", "3", "3"], ["world_size 3 x 3 m: width 3.0 m is too small"], 2),
         (["--record-dir", __file__], ["--record-dir", "is a file; give a folder"], 2),
-        (["--steps", "0"], ["--steps must be at least 1, got 0"], 2),
+        (["--steps", "0"], ["--steps must be a whole number >= 1, got 0"], 2),
         (["--comm-range", "-2"], ["--comm-range must be a positive number"], 2),
         (["--line-of-sight"], ["--line-of-sight needs --comm-range"], 2),
         (["--policies", "foo"], ["unknown exploration policy 'foo'", "utility"], 2),

@@ -9,7 +9,7 @@ import pytest
 
 from merging.tomographic.tracking import METHOD as TRACKED
 from tomosim.exploration import FrontierPolicy
-from tomosim.team import TeamConfig, TeamSession
+from tomosim.team import TeamConfig, TeamSession, TrackingParams
 from tomosim.team.quality import RoundQuality
 from tomosim.team.worker import InlineSearches, WorkerSearches, searches
 from tomosim.worlds import generate_floorplan
@@ -20,6 +20,8 @@ RIGHT_DEG, RIGHT_M = 2.0, 0.2
 """An accepted merge must be this close to the truth (the exploration's accuracy goal)."""
 STEADY_DEG, STEADY_M = 0.5, 0.05
 """How far a tracked transform may move between two rounds: odometry drift only."""
+INLINE = TeamConfig(merge_worker=False)
+"""A team whose global searches run inline."""
 
 
 def explore(*, worker: bool) -> tuple[list[RoundQuality], float]:
@@ -188,9 +190,17 @@ def test_searches_come_back_when_the_worker_has_ended(
         pipe.close()
 
 
-@pytest.mark.parametrize("quality, starts", [(0.95, True), (0.7, False)])
+@pytest.mark.parametrize(
+    "quality, team, starts",
+    [
+        (0.95, INLINE, True),
+        (0.7, INLINE, False),
+        # The bar is the team's tracker setting: lowered below the fit, the track starts.
+        (0.7, TeamConfig(merge_worker=False, tracker=TrackingParams(new_track_quality=0.65)), True),
+    ],
+)
 def test_a_searched_placement_starts_a_track_only_when_it_fits_closely(
-    monkeypatch: pytest.MonkeyPatch, quality: float, starts: bool
+    monkeypatch: pytest.MonkeyPatch, quality: float, team: TeamConfig, starts: bool
 ) -> None:
     from merging.grid import OccupancyGrid
     from merging.result import MergeResult
@@ -206,7 +216,7 @@ def test_a_searched_placement_starts_a_track_only_when_it_fits_closely(
     verdict = MergeResult(placed, 0.8, True, TRACKED, placed, evidence={"quality": quality})
     monkeypatch.setattr(tracking_module, "track_transform", lambda *a, **k: verdict)
     grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
-    estimator = tracking_module.TrackingEstimator(worker=False, rng=0)
+    estimator = tracking_module.TrackingEstimator(team, rng=0)
     first = estimator(0, 1, grid, grid)  # submits the search
     second = estimator(0, 1, grid, grid)  # collects it and tracks from it
     assert not first.accepted
@@ -243,13 +253,13 @@ def test_a_track_is_kept_at_a_confidence_a_new_placement_would_not_reach(
 
     monkeypatch.setattr(tracking_module, "track_transform", verified)
     grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
-    estimator = tracking_module.TrackingEstimator(worker=False, rng=0)
+    estimator = tracking_module.TrackingEstimator(INLINE, rng=0)
     estimator(0, 1, grid, grid)  # submits the search
     assert estimator(0, 1, grid, grid).accepted  # collects it: the track starts at 0.9
-    between = (tracking_module.KEEP_CONFIDENCE + DEFAULT_PARAMS.confidence.accept) / 2
+    between = (INLINE.tracker.keep_confidence + DEFAULT_PARAMS.confidence.accept) / 2
     confidence["now"] = between
     assert estimator(0, 1, grid, grid).accepted  # the track is kept
-    confidence["now"] = tracking_module.KEEP_CONFIDENCE - 0.01
+    confidence["now"] = INLINE.tracker.keep_confidence - 0.01
     lost = estimator(0, 1, grid, grid)
     assert not lost.accepted  # and dropped below the keeping threshold
     assert "which was not accepted" not in lost.reason  # the search was; the track is lost
@@ -267,7 +277,7 @@ def test_a_new_placement_needs_the_acceptance_threshold_to_start_a_track(
     placed = np.eye(3)
     searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
     monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
-    between = (tracking_module.KEEP_CONFIDENCE + DEFAULT_PARAMS.confidence.accept) / 2
+    between = (INLINE.tracker.keep_confidence + DEFAULT_PARAMS.confidence.accept) / 2
 
     def verified(map1: object, map2: object, start: object, *, params: object) -> MergeResult:
         accept = params.confidence.accept  # type: ignore[attr-defined]
@@ -277,6 +287,6 @@ def test_a_new_placement_needs_the_acceptance_threshold_to_start_a_track(
 
     monkeypatch.setattr(tracking_module, "track_transform", verified)
     grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
-    estimator = tracking_module.TrackingEstimator(worker=False, rng=0)
+    estimator = tracking_module.TrackingEstimator(INLINE, rng=0)
     estimator(0, 1, grid, grid)
     assert not estimator(0, 1, grid, grid).accepted

@@ -13,11 +13,13 @@ from tomosim.evaluation import coverage, known_in_world
 from tomosim.frames import place_grid, pose_matrix
 from tomosim.simulation import Simulation
 from tomosim.team import (
+    ORACLE,
     SharedMaps,
     TeamConfig,
     TeamCoverage,
     TeamMerger,
     TeamSession,
+    TrackingParams,
     frame_errors,
     score_round,
     teammate_layer,
@@ -88,7 +90,7 @@ def fake_result(pose: tuple[float, float, float], *, accepted: bool) -> MergeRes
 
 
 def test_confirmation_needs_consecutive_consistent_acceptances() -> None:
-    merger = TeamMerger(confirmations=2, rng=0)
+    merger = TeamMerger(TeamConfig(confirmations=2), rng=0)
     pair = (0, 1)
     assert merger.confirm(pair, fake_result((1.0, 2.0, 0.5), accepted=True)) == 1
     assert merger.confirm(pair, fake_result((1.1, 2.0, 0.51), accepted=True)) == 2
@@ -98,11 +100,28 @@ def test_confirmation_needs_consecutive_consistent_acceptances() -> None:
     assert merger.confirm(pair, fake_result((1.1, 2.0, 0.68), accepted=True)) == 1
 
 
+def test_the_confirmation_tolerances_are_team_settings() -> None:
+    # The same half-degree step confirms within 3 degrees and starts again within 0.1.
+    steps = [
+        fake_result((1.0, 2.0, 0.5), accepted=True),
+        fake_result((1.0, 2.0, 0.51), accepted=True),
+    ]
+    for tolerance, runs in ((3.0, [1, 2]), (0.1, [1, 1])):
+        merger = TeamMerger(TeamConfig(confirm_rotation_deg=tolerance), rng=0)
+        assert [merger.confirm((0, 1), result) for result in steps] == runs
+    moved = [
+        fake_result((1.0, 2.0, 0.5), accepted=True),
+        fake_result((1.3, 2.0, 0.5), accepted=True),
+    ]
+    merger = TeamMerger(TeamConfig(confirm_translation_m=0.2), rng=0)
+    assert [merger.confirm((0, 1), result) for result in moved] == [1, 1]
+
+
 def test_merge_round_scores_views_of_the_truth(world: World) -> None:
     """Two noise-free views of one room: the accepted estimate matches the true transform."""
     starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2]])
     grids = [robot_view(world, start) for start in starts]
-    merger = TeamMerger(interval=1, confirmations=1, rng=0)
+    merger = TeamMerger(TeamConfig(merge_interval=1, confirmations=1), rng=0)
     merge = merger.merge(1, grids)
     scored = score_round(merge, grids, starts, world.truth)
     (pair,) = scored.pairs
@@ -120,7 +139,7 @@ def test_merge_round_scores_views_of_the_truth(world: World) -> None:
 def test_unconfirmed_estimates_do_not_link_maps(world: World) -> None:
     starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2]])
     grids = [robot_view(world, start) for start in starts]
-    merger = TeamMerger(interval=1, confirmations=2, rng=0)
+    merger = TeamMerger(TeamConfig(merge_interval=1, confirmations=2), rng=0)
     first = merger.merge(1, grids)
     assert first.pairs[0].accepted and not first.pairs[0].confirmed
     assert not first.linked(0) and first.relative(0, 1) is None
@@ -140,7 +159,7 @@ def test_a_pair_estimator_replaces_the_merging_method(world: World) -> None:
         cells = np.linalg.inv(first.cell_to_world_matrix()) @ metres @ second.cell_to_world_matrix()
         return MergeResult(cells, 1.0, True, "truth", metres)
 
-    merger = TeamMerger(method="truth", confirmations=1, estimator=truth_estimator)
+    merger = TeamMerger(TeamConfig(method=ORACLE, confirmations=1), estimator=truth_estimator)
     merge = merger.merge(1, grids)
     assert asked == [(0, 1), (0, 2), (1, 2)]
     assert merge.merged_robots == (0, 1, 2) and len(merge.linking.tree) == 2
@@ -203,7 +222,7 @@ def test_crop_is_centred_and_pools_by_maximum() -> None:
     data[20, 20] = 0  # the robot's cell, free
     data[10, 11] = 100  # one wall cell among unknown ones
     grid = OccupancyGrid(data, resolution=0.05, origin=(-1.0, -1.0, 0.0))
-    shared = SharedMaps(1)
+    shared = SharedMaps(1, refresh_interval=TeamConfig().share_interval)
     # Position (0.01, 0.01) m lies in lattice cell (0, 0), which is grid cell (20, 20).
     crop = shared.crop(0, [grid], (0.01, 0.01), size=8, pool=2)
     assert crop.shape == (8, 8)
@@ -274,8 +293,16 @@ def test_config_rejects_bad_values() -> None:
         TeamConfig(method="nope")
     with pytest.raises(ValueError, match="merge_interval"):
         TeamConfig(merge_interval=0)
-    with pytest.raises(ValueError, match="confirmations"):
-        TeamMerger(confirmations=0)
+    with pytest.raises(ValueError, match="confirmations must be a whole number of rounds >= 1"):
+        TeamConfig(confirmations=0)
+    with pytest.raises(ValueError, match="merge must be True or False, got 'no'"):
+        TeamConfig(merge="no")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="comms must be a CommsConfig"):
+        TeamConfig(comms=5.0)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="keep_confidence must be a number in"):
+        TrackingParams(keep_confidence=1.5)
+    with pytest.raises(TypeError, match="config must be a TeamConfig"):
+        TeamSession(generate_floorplan(4), robots=2, config="fast")  # type: ignore[arg-type]
 
 
 def test_team_coverage_refuses_grids_of_another_resolution() -> None:

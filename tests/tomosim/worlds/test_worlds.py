@@ -145,16 +145,16 @@ def test_floorplan_config_is_validated() -> None:
 
 
 def test_floorplan_config_refuses_sizes_no_grid_holds() -> None:
-    with pytest.raises(ValueError, match="width must be finite"):
+    with pytest.raises(ValueError, match="width must be a finite number"):
         FloorplanConfig(width=float("inf"))
-    with pytest.raises(ValueError, match="room_width must be finite"):
+    with pytest.raises(ValueError, match="room_width must be a finite number"):
         FloorplanConfig(room_width=(3.0, float("nan")))
     with pytest.raises(ValueError, match="door_width must be a range"):
         FloorplanConfig(door_width=(1.0,))  # type: ignore[arg-type]
     # Corridors narrower than a robot cut the floor apart (0.3 m left 36 % reachable).
     with pytest.raises(ValueError, match="corridors"):
         FloorplanConfig(corridor_width=(0.3, 0.3))
-    with pytest.raises(TypeError, match="width must be a number"):
+    with pytest.raises(TypeError, match="width must be a finite number"):
         FloorplanConfig(width="30")  # type: ignore[arg-type]
     # 10 km at 0.05 m is 200040 cells a side (a width given in cells, say).
     with pytest.raises(ValueError, match=r"width 10000\.0 m makes a grid 200040 cells"):
