@@ -128,6 +128,7 @@ def test_supersuit_vector_env_steps_every_robot_of_every_env() -> None:
     venv.close()
 
 
+@pytest.mark.slow
 @needs_rl
 def test_environments_in_processes_get_their_own_seeds_and_let_python_exit() -> None:
     # SuperSuit seeded process p's k-th environment with s + p + k: with two processes
@@ -154,6 +155,7 @@ def test_environments_in_processes_get_their_own_seeds_and_let_python_exit() -> 
     assert run.stdout.strip() == "seeded"
 
 
+@pytest.mark.slow
 @needs_rl
 def test_sb3_adapter_seeds_marks_truncation_and_keeps_final_infos() -> None:
     from envs.vector import make_sb3_vector_env
@@ -196,6 +198,7 @@ def test_sb3_adapter_names_each_entry_s_seed_and_renders() -> None:
         venv.close()
 
 
+@pytest.mark.slow
 @needs_rl
 def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
