@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
-from tomosim.kernels.logodds import code_thresholds, update_grid
+from tomosim.kernels.logodds import SATURATED, SCAN_NUMBER_BITS, code_thresholds, update_grid
 from tomosim.lidar import Scan
 
 HIT_DEPTH_CELLS = 0.5
@@ -49,9 +49,10 @@ SAMPLE_STEP_CELLS = 1.0
 a diagonal crossing may skip a corner cell, which neighbouring beams fill."""
 
 STAMP_DTYPE = np.uint8
-"""Type of the kernel's per-cell scan stamps: one byte keeps them, and the cells a
-scan reads, in fewer cache lines; the stamps are cleared every 255 scans, when the
-scan numbers start again."""
+"""Type of the kernel's per-cell stamps (a scan number and a flag,
+:mod:`tomosim.kernels.logodds`): one byte keeps them, and the cells a scan reads, in
+fewer cache lines; their scan numbers are cleared every 127 scans, when the numbers
+start again."""
 MAX_GRID_SIDE_CELLS = 20000
 """Most cells a side that an initial grid or one growth step may take (20000 x
 20000 cells of log-odds alone take 1.6 GB); a building at 0.05 m is a few
@@ -161,6 +162,49 @@ def _check_scan(scan: Scan) -> None:
         )
 
 
+def ray_cells(
+    origin: tuple[float, float], ends: NDArray[np.float64], hit: NDArray[np.bool_], cols: int
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The cells a scan passes and hits (steps 1-2 of the module docstring).
+
+    Parameters are those of :func:`integrate_rays`, and ``cols``, the grid's width.
+
+    Returns
+    -------
+    passed : (S,) intp ndarray
+        Flat index (``row * cols + col``) of the cell of every sample, beam by beam
+        and from the sensor out; a cell appears once per sample that lies in it.
+    hit : (H,) intp ndarray
+        Flat index of the hit cell of every beam that returned, in beam order.
+    """
+    ox, oy = origin
+    dx = ends[:, 0] - ox
+    dy = ends[:, 1] - oy
+    counts = np.ceil(np.hypot(dx, dy) / SAMPLE_STEP_CELLS).astype(np.intp)
+    np.maximum(counts, 1, out=counts)
+    total = int(counts.sum())
+    # Sample j of beam i sits at origin + j / counts[i] * (end - origin), j < counts[i].
+    first = np.cumsum(counts) - counts
+    step = np.arange(total, dtype=np.float32)
+    step -= np.repeat(first.astype(np.float32), counts)
+    xs = np.repeat((dx / counts).astype(np.float32), counts)
+    xs *= step
+    xs += np.float32(ox + 0.5)
+    ys = np.repeat((dy / counts).astype(np.float32), counts)
+    ys *= step
+    ys += np.float32(oy + 0.5)
+    passed = ys.astype(np.intp)
+    passed *= cols
+    passed += xs.astype(np.intp)
+    # Hit cells: the end point carried HIT_DEPTH_CELLS further along its beam.
+    lengths = np.maximum(np.hypot(dx[hit], dy[hit]), np.finfo(float).tiny)
+    depth = HIT_DEPTH_CELLS / lengths
+    hits = np.floor(
+        np.column_stack([ends[hit, 0] + dx[hit] * depth, ends[hit, 1] + dy[hit] * depth]) + 0.5
+    ).astype(np.intp)
+    return passed, hits[:, 1] * cols + hits[:, 0]
+
+
 def integrate_rays(
     logodds: NDArray[np.float32],
     observed: NDArray[np.bool_],
@@ -188,33 +232,7 @@ def integrate_rays(
     config : MappingConfig
         Log-odds increments and clamp.
     """
-    _rows, cols = logodds.shape
-    ox, oy = origin
-    dx = ends[:, 0] - ox
-    dy = ends[:, 1] - oy
-    counts = np.ceil(np.hypot(dx, dy) / SAMPLE_STEP_CELLS).astype(np.intp)
-    np.maximum(counts, 1, out=counts)
-    total = int(counts.sum())
-    # Sample j of beam i sits at origin + j / counts[i] * (end - origin), j < counts[i].
-    first = np.cumsum(counts) - counts
-    step = np.arange(total, dtype=np.float32)
-    step -= np.repeat(first.astype(np.float32), counts)
-    xs = np.repeat((dx / counts).astype(np.float32), counts)
-    xs *= step
-    xs += np.float32(ox + 0.5)
-    ys = np.repeat((dy / counts).astype(np.float32), counts)
-    ys *= step
-    ys += np.float32(oy + 0.5)
-    passed = ys.astype(np.intp)
-    passed *= cols
-    passed += xs.astype(np.intp)
-    # Hit cells: the end point carried HIT_DEPTH_CELLS further along its beam.
-    lengths = np.maximum(np.hypot(dx[hit], dy[hit]), np.finfo(float).tiny)
-    depth = HIT_DEPTH_CELLS / lengths
-    hits = np.floor(
-        np.column_stack([ends[hit, 0] + dx[hit] * depth, ends[hit, 1] + dy[hit] * depth]) + 0.5
-    ).astype(np.intp)
-    hit_index = hits[:, 1] * cols + hits[:, 0]
+    passed, hit_index = ray_cells(origin, ends, hit, logodds.shape[1])
     flat = logodds.reshape(-1)
     before = flat[hit_index]
     values = flat[passed]
@@ -265,6 +283,7 @@ class LogOddsMap:
     __slots__ = (
         "_cells",
         "_scans",
+        "_scratch",
         "_stamps",
         "config",
         "journal",
@@ -280,11 +299,13 @@ class LogOddsMap:
         self.observed = np.zeros((side, side), dtype=bool)
         corner = -(side // 2) * self.config.resolution
         self.origin = (corner, corner)
-        # The ROS-coded grid, recoded cell by cell as scans change cells, and per
-        # cell the number of the last scan that passed it (the kernel's stamps).
+        # The ROS-coded grid, recoded cell by cell as scans change cells, per cell the
+        # number of the last scan that passed it and whether it is saturated (the
+        # kernel's stamps), and the kernel's working memory, kept between scans.
         self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
         self._stamps = np.zeros((side, side), dtype=STAMP_DTYPE)
         self._scans = 0
+        self._scratch = np.zeros(0, dtype=np.int64)
         self.journal: list[NDArray[np.int64]] | None = None
 
     @property
@@ -359,12 +380,13 @@ class LogOddsMap:
         cfg = self.config
         room_checked = False
         while True:
-            # Scan numbers run 1..255 and start again on cleared stamps (STAMP_DTYPE).
-            self._scans = self._scans % np.iinfo(STAMP_DTYPE).max + 1
+            # Scan numbers run 1..127 and start again on stamps whose numbers are
+            # cleared (the saturation flags stay).
+            self._scans = self._scans % SCAN_NUMBER_BITS + 1
             if self._scans == 1:
-                self._stamps.fill(0)
+                np.bitwise_and(self._stamps, STAMP_DTYPE(SATURATED), out=self._stamps)
             a0, b0 = self.anchor
-            grow, fresh = update_grid(
+            grow, fresh, self._scratch = update_grid(
                 self.logodds,
                 self.observed,
                 self._cells,
@@ -390,6 +412,7 @@ class LogOddsMap:
                 CODE_THRESHOLDS,
                 a0,
                 b0,
+                self._scratch,
             )
             if len(grow) == 0:
                 break
