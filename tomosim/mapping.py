@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -377,6 +378,18 @@ class LogOddsMap:
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             raise ValueError(f"pose must be finite, got {(x, y, theta)}")
         _check_scan(scan)
+        self._integrate(x, y, theta, scan.angles, scan.ranges, scan.max_range)
+
+    def _integrate(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        angles: NDArray[np.float64],
+        ranges: NDArray[np.float64],
+        max_range: float,
+    ) -> None:
+        """:meth:`update` with its arguments checked (a finite pose, one angle per range)."""
         cfg = self.config
         room_checked = False
         while True:
@@ -398,9 +411,9 @@ class LogOddsMap:
                 x,
                 y,
                 theta,
-                scan.angles,
-                scan.ranges,
-                scan.max_range,
+                angles,
+                ranges,
+                max_range,
                 cfg.carve_no_return,
                 room_checked,
                 cfg.log_odds_hit,
@@ -440,3 +453,42 @@ class LogOddsMap:
             resolution=self.config.resolution,
             origin=(self.origin[0], self.origin[1], 0.0),
         )
+
+
+def update_maps(
+    maps: Sequence[LogOddsMap],
+    poses: ArrayLike,
+    angles: NDArray[np.float64],
+    ranges: NDArray[np.float64],
+    max_range: float,
+) -> None:
+    """Integrate one scan into each of ``maps``, the arguments checked once for all.
+
+    The same as ``maps[k].update(poses[k], Scan(angles, ranges[k], max_range))``
+    for each ``k`` in turn, as a team's simulation step does.
+
+    Parameters
+    ----------
+    maps : sequence of N LogOddsMap
+    poses : (N, 3) array_like
+        Pose of each scan in its map's frame ``(x, y, theta)``, metres and radians.
+    angles : (B,) float ndarray
+        Beam directions relative to the heading, shared by the scans.
+    ranges : (N, B) float ndarray
+        Each scan's ranges (:class:`tomosim.lidar.Scan`).
+    max_range : float
+        The lidar's range limit, metres.
+    """
+    pose_rows = np.asarray(poses, dtype=float)
+    if pose_rows.shape != (len(maps), 3) or not np.all(np.isfinite(pose_rows)):
+        raise ValueError(
+            f"poses must be finite, one (x, y, theta) per map: shape ({len(maps)}, 3), "
+            f"got {pose_rows.shape}"
+        )
+    if ranges.ndim != 2 or len(ranges) != len(maps):
+        raise ValueError(f"ranges must hold one row per map ({len(maps)}), got {ranges.shape}")
+    if not maps:
+        return
+    _check_scan(Scan(angles, ranges[0], max_range))  # the layout all rows share
+    for grid_map, (x, y, theta), row in zip(maps, pose_rows.tolist(), ranges, strict=True):
+        grid_map._integrate(x, y, theta, angles, row, max_range)

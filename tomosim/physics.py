@@ -222,13 +222,19 @@ class Physics:
         top_speed, top_turn = cfg.max_linear_speed, cfg.max_angular_speed
         speeds = [min(max(value, -top_speed), top_speed) for value in speeds]
         turns = [min(max(value, -top_turn), top_turn) for value in turns]
-        substeps = cfg.substeps(dt)
+        self.drive(speeds, turns, dt)
+
+    def drive(self, speeds: list[float], turns: list[float], dt: float) -> None:
+        """:meth:`step` with its arguments checked: one finite speed (m/s) and turn rate
+        (rad/s) per robot within the limits, and ``dt > 0`` seconds."""
+        substeps = self.config.substeps(dt)
         h = dt / substeps
+        # A turn rate is the control body's own; nothing else changes it (a kinematic
+        # body's velocity is only what it is set to): set once a step.
+        for control, turn in zip(self.controls, turns, strict=True):
+            control.angular_velocity = turn
         for _ in range(substeps):
-            for body, control, speed, turn in zip(
-                self.bodies, self.controls, speeds, turns, strict=True
-            ):
+            for body, control, speed in zip(self.bodies, self.controls, speeds, strict=True):
                 heading = body.angle
                 control.velocity = (speed * math.cos(heading), speed * math.sin(heading))
-                control.angular_velocity = turn
             self.space.step(h)

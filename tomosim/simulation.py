@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 from tomosim.lidar import Lidar, LidarConfig, Scan
-from tomosim.mapping import LogOddsMap, MappingConfig
+from tomosim.mapping import LogOddsMap, MappingConfig, update_maps
 from tomosim.odometry import Odometry, OdometryConfig
 from tomosim.physics import Physics, PhysicsConfig
 from tomosim.worlds.world import NoRoomError, RngLike, World, as_generator
@@ -105,6 +105,8 @@ class Simulation:
         Each robot's map in its own start frame.
     scans : list of Scan
         The latest scan of each robot.
+    ranges : (N, B) float ndarray
+        The latest scans' ranges, one row a robot (``scans[k].ranges`` is row ``k``).
     steps : int
         Steps taken.
 
@@ -131,6 +133,7 @@ class Simulation:
         "maps",
         "odometry",
         "physics",
+        "ranges",
         "scans",
         "start_poses",
         "steps",
@@ -193,6 +196,7 @@ class Simulation:
         self.steps = 0
         self._true = self.physics.poses()
         self.scans: list[Scan] = []
+        self.ranges = np.zeros((len(start), self.config.lidar.beams))
         self._sense()
 
     @property
@@ -235,7 +239,8 @@ class Simulation:
         if not all(math.isfinite(v) and abs(v) <= 1.0 for pair in values for v in pair):
             raise ValueError(f"commands must be finite and within [-1, 1], got {values}")
         phys = self.config.physics
-        self.physics.step(
+        # Commands within [-1, 1] ask for speeds within the limits: nothing to clip.
+        self.physics.drive(
             [linear * phys.max_linear_speed for linear, _ in values],
             [angular * phys.max_angular_speed for _, angular in values],
             self.config.dt,
@@ -248,8 +253,10 @@ class Simulation:
 
     def _sense(self) -> None:
         """Scan from every true pose and map at every odometry pose."""
-        self.scans = self.lidar.scans(
+        lidar = self.lidar
+        self.ranges = lidar.team_ranges(
             self._true, radius=self.config.physics.robot_radius, rngs=self._lidar_rngs
         )
-        for grid_map, odometry, scan in zip(self.maps, self.odometry, self.scans, strict=True):
-            grid_map.update(odometry.pose, scan)
+        angles, max_range = lidar.angles, lidar.config.max_range
+        self.scans = [Scan(angles, row, max_range) for row in self.ranges]
+        update_maps(self.maps, self.odometry_poses, angles, self.ranges, max_range)
