@@ -159,10 +159,10 @@ from envs.observations import (
     OBSERVATION_FORMATS,
     action_space,
     command,
-    normalise,
+    normalise_team,
     normalised_observation_space,
     observation_space,
-    observe,
+    observe_team,
     pose_bound,
 )
 from envs.rendering import HumanWindow, render_frame
@@ -455,18 +455,25 @@ class MultiRobotExplorationEnv(ParallelEnv):
             }
 
     def _observations(self) -> dict[str, dict[str, NDArray[Any]]]:
+        """Every live agent's observation: views of one new array per key (a row each)."""
         assert self.session is not None  # reset() made it
-        observations = {
-            agent: observe(self.session, k, size=self.crop_size, pool=self.pool, bound=self._bound)
+        scans, maps, poses = observe_team(
+            self.session, size=self.crop_size, pool=self.pool, bound=self._bound
+        )
+        if self.observation_format == "normalised":
+            scans, images, poses = normalise_team(
+                scans, maps, poses, bound=self._bound, max_range=self._max_range
+            )
+            return {
+                agent: {"scan": scans[k], "map": images[k], "pose": poses[k]}
+                for k, agent in enumerate(self.possible_agents)
+                if agent in self.agents
+            }
+        return {
+            agent: {"scan": scans[k], "map": maps[k], "pose": poses[k]}
             for k, agent in enumerate(self.possible_agents)
             if agent in self.agents
         }
-        if self.observation_format == "normalised":
-            return {
-                agent: normalise(obs, bound=self._bound, max_range=self._max_range)
-                for agent, obs in observations.items()
-            }
-        return observations
 
     def _infos(self, *, merged_now: bool) -> dict[str, dict[str, Any]]:
         session = self.session
