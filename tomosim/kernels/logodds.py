@@ -18,8 +18,10 @@ them on cells already known to be free. The kernel:
 3. skips the cells whose log-odds sits at ``log_odds_min`` already, which a
    pass cannot change, known from a flag bit of the same stamp
    (:data:`SATURATED`), so that the log-odds grid is read only at cells that
-   can change (the free space the robot has seen a few times is most of
-   what it sees);
+   can change: the free space the robot has seen a few times is nearly all
+   that it sees, so a beam's samples up to its first cell that is not
+   saturated are only read, not stamped (a saturated cell's scan number is
+   never looked at);
 4. applies one ``log_odds_miss`` to each cell passed, then the hits;
 5. recodes, in the ROS coding of :func:`tomosim.mapping.ros_codes`, exactly
    the cells whose log-odds changed, so that the exported grid is never
@@ -214,7 +216,10 @@ def integrate_scan(
         step_x = np.float32((ends[i, 0] - origin_x) / n)
         step_y = np.float32((ends[i, 1] - origin_y) / n)
         beam_cells(step_x, step_y, offset_x, offset_y, n, cols, beam)
-        for j in range(n):
+        first = 0  # the beam's leading run of saturated cells needs no stamping
+        while first < n and stamp[np.uint64(beam[first])] >= np.uint8(SATURATED):
+            first += 1
+        for j in range(first, n):
             cell = np.uint64(beam[j])
             mark = stamp[cell]
             stamp[cell] = (mark & np.uint8(SATURATED)) | now
