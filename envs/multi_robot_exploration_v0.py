@@ -418,7 +418,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
         with interrupts_unwrapped():  # a Ctrl-C inside a kernel reaches the caller as one
             merge = session.step(commands)
             observations = self._observations()
-        rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
+        rewards = dict(zip(self.agents, session.rewards.tolist(), strict=True))
         done = session.coverage.fraction >= self.coverage_target
         cut = session.steps >= self.max_cycles
         terminations = dict.fromkeys(self.agents, bool(done))

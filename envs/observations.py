@@ -186,6 +186,10 @@ def normalise_team(
 
 def command(action: object, *, name: str) -> tuple[float, float]:
     """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
+    if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
+        linear, angular = action.tolist()  # the common case, a sampled action, at once
+        if math.isfinite(linear) and math.isfinite(angular):
+            return (min(max(linear, -1.0), 1.0), min(max(angular, -1.0), 1.0))
     values = np.empty(0)
     try:
         given = np.asarray(action)
