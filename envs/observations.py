@@ -152,13 +152,19 @@ def observe_team(
     """
     simulation = session.simulation
     scans = simulation.ranges.astype(np.float32)  # returns already lie in [0, max_range]
-    scans[~np.isfinite(scans)] = np.float32(simulation.lidar.config.max_range)
-    estimates = simulation.odometry_poses
-    np.clip(estimates[:, :2], -bound, bound, out=estimates[:, :2])
+    limit = simulation.lidar.config.max_range
+    np.nan_to_num(scans, copy=False, nan=limit, posinf=limit, neginf=limit)
+    poses = np.array(
+        [
+            (min(max(x, -bound), bound), min(max(y, -bound), bound), theta)
+            for x, y, theta in (odometry.pose.tolist() for odometry in simulation.odometry)
+        ],
+        dtype=np.float32,
+    )
     maps = np.empty((simulation.count, size, size), dtype=np.int8)
     for robot in range(simulation.count):
         maps[robot] = session.best_crop(robot, size=size, pool=pool)
-    return scans, maps, estimates.astype(np.float32)
+    return scans, maps, poses
 
 
 def normalise_team(

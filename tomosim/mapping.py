@@ -147,16 +147,21 @@ def _check_scan(scan: Scan) -> None:
     The compiled kernel reads one angle per range; it checks each beam's angle
     and range itself (finite, within ``[0, max_range]`` or ``inf``/``nan``).
     """
-    angles, ranges = np.asarray(scan.angles), np.asarray(scan.ranges)
-    if angles.ndim != 1 or angles.shape != ranges.shape:
+    _check_layout(np.asarray(scan.angles), np.shape(scan.ranges), scan.max_range)
+
+
+def _check_layout(angles: NDArray[np.float64], shape: tuple[int, ...], limit: object) -> None:
+    """:func:`_check_scan` of a scan whose ranges have ``shape``."""
+    if angles.ndim != 1 or angles.shape != shape:
         raise ValueError(
             f"a scan needs one angle per range, got angles of shape {angles.shape} and "
-            f"ranges of shape {ranges.shape}"
+            f"ranges of shape {shape}"
         )
-    limit = scan.max_range
-    if isinstance(limit, bool) or not isinstance(limit, numbers.Real):
+    if type(limit) is not float and (  # a float is a number: spare the slower checks
+        isinstance(limit, bool) or not isinstance(limit, numbers.Real)
+    ):
         raise TypeError(f"a scan's max_range must be a number of metres, got {limit!r}")
-    if not (math.isfinite(limit) and limit > 0):
+    if not (math.isfinite(limit) and float(limit) > 0):
         raise ValueError(
             f"a scan's max_range must be a finite positive number of metres, got {limit} "
             "(a beam without return is inf; the limit is where the map stops carving)"
@@ -480,15 +485,16 @@ def update_maps(
         The lidar's range limit, metres.
     """
     pose_rows = np.asarray(poses, dtype=float)
-    if pose_rows.shape != (len(maps), 3) or not np.all(np.isfinite(pose_rows)):
+    values = pose_rows.tolist()
+    if pose_rows.shape != (len(maps), 3) or not all(
+        math.isfinite(v) for pose in values for v in pose
+    ):
         raise ValueError(
             f"poses must be finite, one (x, y, theta) per map: shape ({len(maps)}, 3), "
             f"got {pose_rows.shape}"
         )
     if ranges.ndim != 2 or len(ranges) != len(maps):
         raise ValueError(f"ranges must hold one row per map ({len(maps)}), got {ranges.shape}")
-    if not maps:
-        return
-    _check_scan(Scan(angles, ranges[0], max_range))  # the layout all rows share
-    for grid_map, (x, y, theta), row in zip(maps, pose_rows.tolist(), ranges, strict=True):
+    _check_layout(angles, ranges.shape[1:], max_range)  # the layout all rows share
+    for grid_map, (x, y, theta), row in zip(maps, values, ranges, strict=True):
         grid_map._integrate(x, y, theta, angles, row, max_range)
