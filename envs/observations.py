@@ -151,9 +151,9 @@ def observe_team(
     poses : (N, 3) float32 ndarray
     """
     simulation = session.simulation
-    scans = simulation.ranges.astype(np.float32)  # returns already lie in [0, max_range]
-    limit = simulation.lidar.config.max_range
-    np.nan_to_num(scans, copy=False, nan=limit, posinf=limit, neginf=limit)
+    # Returns lie in [0, max_range] already; fmin reads no return (inf) and dropouts (nan)
+    # as max_range.
+    scans = np.fmin(simulation.ranges, simulation.lidar.config.max_range).astype(np.float32)
     poses = np.array(
         [
             (min(max(x, -bound), bound), min(max(y, -bound), bound), theta)

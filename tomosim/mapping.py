@@ -37,7 +37,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
-from tomosim.kernels.logodds import SATURATED, SCAN_NUMBER_BITS, code_thresholds, update_grid
+from tomosim.kernels.logodds import (
+    GROW_SCRATCH,
+    INTEGRATED,
+    SATURATED,
+    SCAN_NUMBER_BITS,
+    code_thresholds,
+    update_grid,
+)
 from tomosim.lidar import Scan
 
 HIT_DEPTH_CELLS = 0.5
@@ -291,6 +298,7 @@ class LogOddsMap:
         "_scans",
         "_scratch",
         "_stamps",
+        "_wanted",
         "config",
         "journal",
         "logodds",
@@ -312,6 +320,7 @@ class LogOddsMap:
         self._stamps = np.zeros((side, side), dtype=STAMP_DTYPE)
         self._scans = 0
         self._scratch = np.zeros(0, dtype=np.int64)
+        self._wanted = np.zeros(4)  # what the kernel asks for before it can integrate
         self.journal: list[NDArray[np.int64]] | None = None
 
     @property
@@ -404,7 +413,7 @@ class LogOddsMap:
             if self._scans == 1:
                 np.bitwise_and(self._stamps, STAMP_DTYPE(SATURATED), out=self._stamps)
             a0, b0 = self.anchor
-            grow, fresh, self._scratch = update_grid(
+            status, fresh = update_grid(
                 self.logodds,
                 self.observed,
                 self._cells,
@@ -431,12 +440,16 @@ class LogOddsMap:
                 a0,
                 b0,
                 self._scratch,
+                self._wanted,
             )
-            if len(grow) == 0:
+            if status == INTEGRATED:
                 break
+            if status == GROW_SCRATCH:
+                self._scratch = np.empty(int(self._wanted[0]), dtype=np.int64)
+                continue
             # The quick test of the kernel failed; ensure_contains applies the exact one
             # (the scan needs half the room it asks for).
-            self.ensure_contains(grow[:2], grow[2:])
+            self.ensure_contains(self._wanted[:2], self._wanted[2:])
             room_checked = True
         if self.journal is not None and len(fresh):
             self.journal.append(fresh)

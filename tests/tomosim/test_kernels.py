@@ -149,14 +149,14 @@ def test_log_odds_kernel_matches_the_numpy_model_scan_by_scan() -> None:
     kernel_logodds, kernel_observed = logodds.copy(), observed.copy()
     codes = np.full(shape, UNKNOWN, np.int8)
     stamps = np.zeros(shape, np.uint8)
-    scratch = np.zeros(0, np.int64)
+    scratch = np.zeros(200_000, np.int64)  # more than any of these scans needs
     repeated = random_scan(rng, shape, 90)
     for scan in range(1, 60):
         # The last scans repeat one: its passes reach the lower clamp, its hits the upper.
         origin, ends, hit = random_scan(rng, shape, 90) if scan <= 40 else repeated
         expected_fresh = first_observed(observed, origin, ends, hit)
         integrate_rays(logodds, observed, origin, ends, hit, config)
-        fresh, scratch = integrate_scan(
+        fresh = integrate_scan(
             kernel_logodds, kernel_observed, codes, stamps, scan, origin[0], origin[1], ends, hit,
             config.log_odds_hit, config.log_odds_miss, config.log_odds_min, config.log_odds_max,
             SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS, scratch,
@@ -266,3 +266,18 @@ def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
             start[0], start[1], 8, pool,
         )  # fmt: skip
         np.testing.assert_array_equal(ours, expected)
+
+
+def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None:
+    config = MappingConfig()
+    shape = (90, 120)
+    origin, ends, hit = random_scan(np.random.default_rng(3), shape, 90)
+    logodds = np.zeros(shape, np.float32)
+    with pytest.raises(ValueError, match="scratch memory is too small"):
+        integrate_scan(
+            logodds, np.zeros(shape, bool), np.full(shape, UNKNOWN, np.int8),
+            np.zeros(shape, np.uint8), 1, origin[0], origin[1], ends, hit,
+            config.log_odds_hit, config.log_odds_miss, config.log_odds_min, config.log_odds_max,
+            SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS, np.zeros(10, np.int64),
+        )  # fmt: skip
+    assert not np.any(logodds)  # refused before it changed anything

@@ -31,7 +31,9 @@ them on cells already known to be free. The kernel:
 
 Indices are unsigned, so that the compiled code skips the wrap-around of
 negative indices. A *scratch* buffer, kept by the caller from scan to scan,
-holds the sample cells and the changed cells.
+holds the sample cells and the changed cells (:func:`update_grid` says when it
+is too small). Each kernel hands back one array at most: every array returned
+to Python costs about a microsecond to box.
 """
 
 from __future__ import annotations
@@ -51,6 +53,15 @@ such a cell as it is, so passes skip it."""
 SCAN_NUMBER_BITS = 0x7F
 """The stamp bits holding a scan number: numbers run 1..127; a caller starting them
 again clears these bits of every stamp and keeps :data:`SATURATED`."""
+INTEGRATED = 0
+"""Status of :func:`update_grid`: the scan was integrated."""
+GROW_GRID = 1
+"""Status of :func:`update_grid`: the grid must grow first."""
+GROW_SCRATCH = 2
+"""Status of :func:`update_grid`: the scratch memory must grow first."""
+SAMPLES_MARGIN = 3
+"""Samples added to a beam's length in cells when bounding its samples: one for the
+ceiling, one for a beam of no length (one sample), one for rounding."""
 CODE_TABLE_SIZE = 128
 """Entries of :func:`code_thresholds`: the 100 thresholds padded with ``inf`` to a power
 of two, so that a search halves it without a bound check."""
@@ -127,7 +138,7 @@ def integrate_scan(
     hit_depth: float,
     thresholds: NDArray[np.float64],
     scratch: NDArray[np.int64],
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+) -> NDArray[np.int64]:
     """Apply one scan in place (the model of :func:`tomosim.mapping.integrate_rays`).
 
     Parameters
@@ -159,16 +170,16 @@ def integrate_scan(
     thresholds : (128,) float ndarray
         :func:`code_thresholds`.
     scratch : (S,) int64 ndarray
-        Working memory of any size; returned, replaced by a larger one when too small.
+        Working memory: at least the scan's samples, plus one per beam and the
+        samples of its longest beam (:func:`update_grid` bounds it); a smaller one
+        raises ValueError.
 
     Returns
     -------
-    fresh : (K,) int64 ndarray
+    (K,) int64 ndarray
         Flat indices (``row * cols + col``) of the cells observed for the first
         time, in the order of the samples (beam by beam, from the sensor out)
         that first changed them, then of the hits.
-    scratch : int64 ndarray
-        The working memory to pass to the next call.
     """
     cols = logodds.shape[1]
     flat = logodds.ravel()
@@ -206,7 +217,7 @@ def integrate_scan(
         hit_before[hits] = flat[cell]
         hits += 1
     if scratch.shape[0] < total + hits + longest:
-        scratch = np.empty(2 * (total + hits + longest), dtype=np.int64)
+        raise ValueError("the scratch memory is too small for this scan; see update_grid")
     beam = scratch[total + hits :]  # one beam's sample cells, after the room for the lists
     now = np.uint8(scan_id)
     # Steps 1-3: the first pass of each cell not saturated, in the order of the samples.
@@ -255,7 +266,7 @@ def integrate_scan(
             fresh[new] = cell
             new += 1
         coded[cell] = ros_code(flat[cell], thresholds)
-    return fresh[:new], scratch
+    return fresh[:new]
 
 
 @kernel
@@ -351,7 +362,8 @@ def update_grid(
     anchor_a: int,
     anchor_b: int,
     scratch: NDArray[np.int64],
-) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    wanted: NDArray[np.float64],
+) -> tuple[int, NDArray[np.int64]]:
     """One scan into a grid whose cell ``(0, 0)`` has its corner at ``(grid_x, grid_y)`` metres.
 
     The steps of :meth:`tomosim.mapping.LogOddsMap.update` in one call:
@@ -359,28 +371,27 @@ def update_grid(
     room (unless ``room_checked``), the end points in cell coordinates, and
     :func:`integrate_scan`. Arguments are those of the two kernels, the pose
     ``(pose_x, pose_y, pose_theta)``, the scan's ``angles``, ``ranges`` and
-    ``max_range``, the lattice index ``(anchor_a, anchor_b)`` of cell ``(0, 0)``
-    and the scratch memory of :func:`integrate_scan`.
+    ``max_range``, the lattice index ``(anchor_a, anchor_b)`` of cell ``(0, 0)``,
+    the scratch memory of :func:`integrate_scan`, and ``wanted``, a ``(4,)`` array
+    that says what the caller must do first when the scan was not integrated.
 
     Returns
     -------
-    grow : (0,) or (4,) float ndarray
-        Empty when the scan was integrated; else ``(xmin, ymin, xmax, ymax)``,
-        metres, a box the grid must be grown to hold before the scan can be
-        (nothing was changed).
+    status : int
+        :data:`INTEGRATED`; :data:`GROW_GRID`: nothing was changed, the grid must
+        first be grown to hold the box ``wanted = (xmin, ymin, xmax, ymax)``,
+        metres; :data:`GROW_SCRATCH`: nothing was changed, the scratch memory
+        must first hold ``wanted[0]`` cells.
     fresh : (K, 2) int64 ndarray
         Lattice cells ``(a, b)`` observed for the first time, in the order of
-        :func:`integrate_scan`.
-    scratch : int64 ndarray
-        The scratch memory to pass to the next call.
+        :func:`integrate_scan` (none unless integrated).
     """
     none = np.zeros((0, 2), dtype=np.int64)
-    no_growth = np.zeros(0)
     ends, hit, box = beam_ends(
         pose_x, pose_y, pose_theta, angles, ranges, max_range, carve_no_return
     )
     if ends.shape[0] == 0:
-        return no_growth, none, scratch
+        return INTEGRATED, none
     # One cell of room beyond the end points for the hit cells (the hit depth).
     room = resolution
     rows, cols = logodds.shape
@@ -390,13 +401,20 @@ def update_grid(
         and box[2] + room < grid_x + cols * room
         and box[3] + room < grid_y + rows * room
     ):
-        grow = np.array([box[0] - room, box[1] - room, box[2] + room, box[3] + room])
-        return grow, none, scratch
+        wanted[0], wanted[1] = box[0] - room, box[1] - room
+        wanted[2], wanted[3] = box[2] + room, box[3] + room
+        return GROW_GRID, none
+    # A beam is no longer than the farthest corner of the box from the sensor.
+    reach = math.hypot(max(box[2] - pose_x, pose_x - box[0]), max(box[3] - pose_y, pose_y - box[1]))
+    per_beam = int(reach / resolution / sample_step) + SAMPLES_MARGIN
+    if scratch.shape[0] < ends.shape[0] * (per_beam + 1) + per_beam:
+        wanted[0] = ends.shape[0] * (per_beam + 1) + per_beam
+        return GROW_SCRATCH, none
     cells = np.empty_like(ends)
     for i in range(ends.shape[0]):
         cells[i, 0] = (ends[i, 0] - grid_x) / resolution - 0.5
         cells[i, 1] = (ends[i, 1] - grid_y) / resolution - 0.5
-    fresh, scratch = integrate_scan(
+    fresh = integrate_scan(
         logodds,
         observed,
         codes,
@@ -419,4 +437,4 @@ def update_grid(
     for k in range(fresh.shape[0]):
         lattice[k, 0] = fresh[k] % cols + anchor_a
         lattice[k, 1] = fresh[k] // cols + anchor_b
-    return no_growth, lattice, scratch
+    return INTEGRATED, lattice
