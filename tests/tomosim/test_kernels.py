@@ -259,7 +259,9 @@ def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
         np.array([-1, 0, 10, 50, 100], np.int8), size=(40, 50), p=[0.5, 0.2, 0.1, 0.1, 0.1]
     )
     layer = rng.choice(np.array([-1, 0, 100], np.int8), size=(30, 30)) if with_layer else None
-    for start in [(-5, -7), (10, 12), (40, 30), (-40, -40)]:
+    # Windows partly off the grid, inside it across the layer's edge, off both, inside
+    # both, and inside the grid beside the layer.
+    for start in [(-5, -7), (10, 12), (40, 30), (-40, -40), (21, 16), (3, 0)]:
         expected = numpy_crop(own, (3, -2), layer, (20, 15), start, 8, pool)
         ours = crop_max_pool(
             own, 3, -2, layer if layer is not None else np.zeros((0, 0), np.int8), 20, 15,
