@@ -486,15 +486,17 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 if not math.isfinite(pair["matching_index"]):
                     pair["matching_index"] = None
         merge_info = _copy_merge_info(self._merge_info)
+        steps, coverage, names = session.steps, session.coverage, self.possible_agents
+        team_coverage = coverage.fraction
         infos = {}
-        for k, agent in enumerate(self.possible_agents):
+        for k, agent in enumerate(names):
             if agent not in self.agents:
                 continue
             infos[agent] = {
-                "step": session.steps,
-                "team_coverage": session.coverage.fraction,
-                "coverage": session.coverage.robot_fraction(k),
-                "teammates": [agent_name(t) for t in session.shared.teammates(k)],
+                "step": steps,
+                "team_coverage": team_coverage,
+                "coverage": coverage.robot_fraction(k),
+                "teammates": [names[t] for t in session.shared.teammates(k)],
                 "merged_now": merged_now,
                 "merge": merge_info,
             }

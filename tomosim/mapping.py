@@ -352,9 +352,9 @@ class LogOddsMap:
             raise RuntimeError("the journal is off; call start_journal() first")
         entries = self.journal
         self.journal = []
-        if not entries:
-            return np.zeros((0, 2), dtype=np.int64)
-        return entries[0] if len(entries) == 1 else np.concatenate(entries)
+        if len(entries) == 1:  # one update since the last call, as in a simulation step
+            return entries[0]
+        return np.concatenate(entries) if entries else np.zeros((0, 2), dtype=np.int64)
 
     def to_cells(self, points: ArrayLike) -> NDArray[np.float64]:
         """``(N, 2)`` map-frame metres to cell coordinates (centres at integers)."""
