@@ -103,8 +103,6 @@ class Simulation:
     odometry : list of Odometry
     maps : list of LogOddsMap
         Each robot's map in its own start frame.
-    scans : list of Scan
-        The latest scan of each robot.
     ranges : (N, B) float ndarray
         The latest scans' ranges, one row a robot (``scans[k].ranges`` is row ``k``).
     steps : int
@@ -127,6 +125,7 @@ class Simulation:
 
     __slots__ = (
         "_lidar_rngs",
+        "_scans",
         "_true",
         "config",
         "lidar",
@@ -134,7 +133,6 @@ class Simulation:
         "odometry",
         "physics",
         "ranges",
-        "scans",
         "start_poses",
         "steps",
         "world",
@@ -195,7 +193,7 @@ class Simulation:
         self.maps = [LogOddsMap(self.config.mapping) for _ in range(len(start))]
         self.steps = 0
         self._true = self.physics.poses()
-        self.scans: list[Scan] = []
+        self._scans: list[Scan] | None = None  # made from ranges when asked for
         self.ranges = np.zeros((len(start), self.config.lidar.beams))
         self._sense()
 
@@ -203,6 +201,15 @@ class Simulation:
     def count(self) -> int:
         """Number of robots."""
         return len(self.maps)
+
+    @property
+    def scans(self) -> list[Scan]:
+        """The latest scan of each robot (its ranges a row of ``ranges``; the same list until
+        the next step)."""
+        if self._scans is None:
+            angles, max_range = self.lidar.angles, self.lidar.config.max_range
+            self._scans = [Scan(angles, row, max_range) for row in self.ranges]
+        return self._scans
 
     @property
     def time(self) -> float:
@@ -258,5 +265,5 @@ class Simulation:
             self._true, radius=self.config.physics.robot_radius, rngs=self._lidar_rngs
         )
         angles, max_range = lidar.angles, lidar.config.max_range
-        self.scans = [Scan(angles, row, max_range) for row in self.ranges]
+        self._scans = None
         update_maps(self.maps, self.odometry_poses, angles, self.ranges, max_range)
