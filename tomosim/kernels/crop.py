@@ -53,13 +53,6 @@ def covers(cells: NDArray[np.int8], first_row: int, first_col: int, fine: int) -
 
 
 @kernel
-def disjoint(cells: NDArray[np.int8], first_row: int, first_col: int, fine: int) -> bool:
-    """Whether ``cells`` hold no cell of that window (:func:`covers`)."""
-    rows, cols = cells.shape
-    return first_row + fine <= 0 or first_col + fine <= 0 or first_row >= rows or first_col >= cols
-
-
-@kernel
 def pool_pairs(
     own: NDArray[np.int8],
     own_row: int,
@@ -67,29 +60,39 @@ def pool_pairs(
     layer: NDArray[np.int8],
     layer_row: int,
     layer_col: int,
-    with_layer: bool,
     size: int,
 ) -> NDArray[np.int8]:
-    """:func:`crop_max_pool` with ``pool = 2`` of a window that ``own`` covers (its cell
-    ``(0, 0)`` at ``own[own_row, own_col]``), and, ``with_layer``, that the layer covers
-    too (at ``layer[layer_row, layer_col]``; else the layer holds none of it)."""
+    """:func:`crop_max_pool` with ``pool = 2`` of a window that ``own`` covers, its cell
+    ``(0, 0)`` at ``own[own_row, own_col]`` and at ``layer[layer_row, layer_col]`` (which
+    may lie off the layer): each pair of fine rows is pooled from the grids' rows, an
+    own row copied only where the layer holds unknown own cells' values."""
     width = 2 * size
+    layer_rows, layer_cols = layer.shape
+    first, last = max(0, -layer_col), min(width, layer_cols - layer_col)  # layer columns
     filled = np.empty((2, width), dtype=np.int8)
     out = np.empty((size, size), dtype=np.int8)
     for i in range(size):
         upper = own[own_row + 2 * i, own_col : own_col + width]
         lower = own[own_row + 2 * i + 1, own_col : own_col + width]
-        if with_layer:  # unknown own cells take the layer's value
-            mates_upper = layer[layer_row + 2 * i, layer_col : layer_col + width]
-            mates_lower = layer[layer_row + 2 * i + 1, layer_col : layer_col + width]
-            for k in range(width):
-                filled[0, k] = upper[k] if upper[k] >= 0 else mates_upper[k]
-                filled[1, k] = lower[k] if lower[k] >= 0 else mates_lower[k]
-            upper = filled[0]
-            lower = filled[1]
-        row = out[i]
+        for half in range(2):
+            mates_row = layer_row + 2 * i + half
+            if first >= last or mates_row < 0 or mates_row >= layer_rows:
+                continue
+            row = filled[half]  # unknown own cells take the layer's value
+            row[:] = upper if half == 0 else lower
+            mates = layer[mates_row]
+            for k in range(first, last):
+                value = row[k]
+                row[k] = value if value >= 0 else mates[layer_col + k]
+            if half == 0:
+                upper = filled[0]
+            else:
+                lower = filled[1]
+        target = out[i]
         for j in range(size):
-            row[j] = max(max(upper[2 * j], upper[2 * j + 1]), max(lower[2 * j], lower[2 * j + 1]))
+            target[j] = max(
+                max(upper[2 * j], upper[2 * j + 1]), max(lower[2 * j], lower[2 * j + 1])
+            )
     return out
 
 
@@ -128,13 +131,10 @@ def crop_max_pool(
     fine = size * pool
     own_row, own_col = start_b - own_b, start_a - own_a
     layer_row, layer_col = start_b - layer_b, start_a - layer_a
-    # 0. The default pool of 2 on a window inside the robot's grid, with no layer there or
-    # a layer over all of it: pooled from the grids' rows, with no window built.
+    # 0. The default pool of 2 on a window inside the robot's grid (nearly always):
+    # pooled from the grids' rows, with no window built.
     if pool == 2 and covers(own, own_row, own_col, fine):
-        if disjoint(layer, layer_row, layer_col, fine):
-            return pool_pairs(own, own_row, own_col, layer, 0, 0, False, size)
-        if covers(layer, layer_row, layer_col, fine):
-            return pool_pairs(own, own_row, own_col, layer, layer_row, layer_col, True, size)
+        return pool_pairs(own, own_row, own_col, layer, layer_row, layer_col, size)
     # 1. The fine window, by row slices: own cells, then the layer's where own are unknown.
     window = np.full((fine, fine), np.int8(-1))
     fill_window(window, own, own_row, own_col, False)
