@@ -316,8 +316,10 @@ def header(title: str, cpu: bool = False) -> str:
 
 
 def profile(steps: int, top: int) -> None:
-    """Print the ``top`` functions by cumulative time of one default run of ``steps`` steps."""
+    """Print the ``top`` functions by cumulative time of one default run of ``steps`` steps
+    (after an untimed run, so that loading compiled code is not profiled)."""
     env = exploration.parallel_env()
+    warm_up(len(env.possible_agents))
     env.reset(seed=0)
     wait_for_worker()
     generator = np.random.default_rng(ACTION_SEED_OFFSET)
