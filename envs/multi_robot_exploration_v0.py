@@ -195,10 +195,10 @@ from envs.observations import (
     OBSERVATION_FORMATS,
     action_space,
     command,
-    normalise,
+    normalise_team,
     normalised_observation_space,
     observation_space,
-    observe,
+    observe_team,
     pose_bound,
 )
 from envs.rendering import HumanWindow, render_frame
@@ -418,7 +418,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
             merge = session.step(commands)
             observations = self._observations()
         self._follow(merge)
-        rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
+        rewards = dict(zip(self.agents, session.rewards.tolist(), strict=True))
         done = session.coverage.fraction >= self.coverage_target
         cut = session.steps >= self.max_cycles
         terminations = dict.fromkeys(self.agents, bool(done))
@@ -472,18 +472,25 @@ class MultiRobotExplorationEnv(ParallelEnv):
             }
 
     def _observations(self) -> dict[str, dict[str, NDArray[Any]]]:
+        """Every live agent's observation: views of one new array per key (a row each)."""
         assert self.session is not None  # reset() made it
-        observations = {
-            agent: observe(self.session, k, size=self.crop_size, pool=self.pool, bound=self._bound)
+        scans, maps, poses = observe_team(
+            self.session, size=self.crop_size, pool=self.pool, bound=self._bound
+        )
+        if self.observation_format == "normalised":
+            scans, images, poses = normalise_team(
+                scans, maps, poses, bound=self._bound, max_range=self._max_range
+            )
+            return {
+                agent: {"scan": scans[k], "map": images[k], "pose": poses[k]}
+                for k, agent in enumerate(self.possible_agents)
+                if agent in self.agents
+            }
+        return {
+            agent: {"scan": scans[k], "map": maps[k], "pose": poses[k]}
             for k, agent in enumerate(self.possible_agents)
             if agent in self.agents
         }
-        if self.observation_format == "normalised":
-            return {
-                agent: normalise(obs, bound=self._bound, max_range=self._max_range)
-                for agent, obs in observations.items()
-            }
-        return observations
 
     def _infos(self, *, merged_now: bool) -> dict[str, dict[str, Any]]:
         session = self.session
@@ -496,15 +503,17 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 if not math.isfinite(pair["matching_index"]):
                     pair["matching_index"] = None
         merge_info = _copy_merge_info(self._merge_info)
+        steps, coverage, names = session.steps, session.coverage, self.possible_agents
+        team_coverage = coverage.fraction
         infos = {}
-        for k, agent in enumerate(self.possible_agents):
+        for k, agent in enumerate(names):
             if agent not in self.agents:
                 continue
             infos[agent] = {
-                "step": session.steps,
-                "team_coverage": session.coverage.fraction,
-                "coverage": session.coverage.robot_fraction(k),
-                "teammates": [agent_name(t) for t in session.shared.teammates(k)],
+                "step": steps,
+                "team_coverage": team_coverage,
+                "coverage": coverage.robot_fraction(k),
+                "teammates": [names[t] for t in session.shared.teammates(k)],
                 "merged_now": merged_now,
                 "merge": merge_info,
             }

@@ -138,6 +138,11 @@ class Lidar:
         self._angles = config.angles()
         self._angles.setflags(write=False)
 
+    @property
+    def angles(self) -> NDArray[np.float64]:
+        """``(B,)`` beam directions relative to the heading, radians (read-only)."""
+        return self._angles
+
     def true_ranges(
         self,
         pose: ArrayLike,
@@ -199,7 +204,7 @@ class Lidar:
 
         The same scans as :meth:`scan` from each pose in turn with the other
         robots as ``others`` (robot ``k`` drawing from ``rngs[k]``), in one
-        compiled call.
+        compiled call; their ranges are the rows of :meth:`team_ranges`.
 
         Parameters
         ----------
@@ -210,6 +215,13 @@ class Lidar:
         rngs : sequence of N numpy.random.Generator
             Each robot's stream.
         """
+        ranges = self.team_ranges(poses, radius=radius, rngs=rngs)
+        return [Scan(self._angles, row, self.config.max_range) for row in ranges]
+
+    def team_ranges(
+        self, poses: NDArray[np.float64], *, radius: float, rngs: Sequence[np.random.Generator]
+    ) -> NDArray[np.float64]:
+        """``(N, B)`` ranges of the scans of :meth:`scans` (same arguments), one row a robot."""
         cfg = self.config
         beams = cfg.beams
         poses = np.ascontiguousarray(poses, dtype=np.float64)
@@ -220,10 +232,10 @@ class Lidar:
             raise ValueError(f"need one generator per pose, got {len(rngs)} for {robots}")
         normals = np.empty((robots, beams))
         uniforms = np.empty((robots, beams))
-        for k, rng in enumerate(rngs):  # per robot, as scan() draws them
-            normals[k] = rng.normal(0.0, 1.0, beams)
-            uniforms[k] = rng.random(beams)
-        ranges = scan_team(
+        for k, rng in enumerate(rngs):  # per robot, the values scan() draws, in its order
+            rng.standard_normal(out=normals[k])
+            rng.random(out=uniforms[k])
+        return scan_team(
             poses,
             cfg.first_angle,
             cfg.increment,
@@ -236,4 +248,3 @@ class Lidar:
             cfg.range_noise_std,
             cfg.dropout_probability,
         )
-        return [Scan(self._angles, row, cfg.max_range) for row in ranges]

@@ -11,6 +11,7 @@ true pose is never used for anything but the increment.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,14 +106,14 @@ class Odometry:
         x, y, theta = (float(v) for v in np.asarray(true_pose, dtype=float))
         self._last_true = (x, y, theta)
 
-    def update(self, true_pose: ArrayLike) -> NDArray[np.float64]:
+    def update(self, true_pose: Sequence[float] | NDArray[np.float64]) -> NDArray[np.float64]:
         """Advance the estimate by the noisy motion since the last call; returns it.
 
         Draws exactly three normal variates per call, moving or not. The
         arithmetic is that of :func:`relative_motion` and :func:`compose`, on
         plain floats (a step costs a few numpy calls less).
         """
-        x1, y1, t1 = np.asarray(true_pose, dtype=float).tolist()
+        x1, y1, t1 = (float(v) for v in true_pose)
         x0, y0, t0 = self._last_true
         self._last_true = (x1, y1, t1)
         # relative_motion(last, now)

@@ -86,7 +86,8 @@ def cast_scan(
         high = low + abs(delta)
         cross = x0 * ey - y0 * ex
         collinear = abs(cross) <= COLLINEAR_TOLERANCE * math.hypot(ex, ey)
-        nearer = min(math.hypot(x0, y0), math.hypot(x1, y1))
+        # A beam along a collinear segment meets its nearer end (needed for those alone).
+        nearer = min(math.hypot(x0, y0), math.hypot(x1, y1)) if collinear else 0.0
         # 2. The beams of the extent and of its copies one turn either side.
         for turn in (-TWO_PI, 0.0, TWO_PI):
             k_low = max(math.ceil((low + turn - ANGLE_TOLERANCE) / increment), 0)

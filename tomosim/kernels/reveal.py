@@ -120,7 +120,10 @@ def reveal_team(
     counts: NDArray[np.int64],
     team_known: NDArray[np.bool_],
     finders: NDArray[np.int32],
-) -> tuple[NDArray[np.int64], NDArray[np.int64], int, bool]:
+    found_starts: NDArray[np.int64],
+    credit: NDArray[np.float64],
+    cell_area: float,
+) -> tuple[NDArray[np.int64], int, bool]:
     """:func:`reveal_cells` for every robot of a team, then what the team learnt.
 
     Parameters
@@ -140,14 +143,19 @@ def reveal_team(
         Which truth cells the team knows; updated in place.
     finders : (T,) int32 ndarray
         Zeros, used as scratch (zeros again on return).
+    found_starts : (N + 1,) int64 ndarray
+        Filled: robot ``k``'s cells of ``found`` are ``found[found_starts[k]:found_starts[k + 1]]``.
+    credit : (N,) float64 ndarray
+        Filled, unless ``shared``: per robot, the number of its ``found`` cells times
+        ``cell_area`` (each cell had one finder).
+    cell_area : float
+        Square metres of a truth cell.
 
     Returns
     -------
     found : (M,) int64 ndarray
         Per robot, robot after robot, the truth cells it knows for the first time
         and the team knew not before this call.
-    found_starts : (N + 1,) int64 ndarray
-        Robot ``k``'s are ``found[found_starts[k]:found_starts[k + 1]]``.
     newly_team : int
         Truth cells the team knows for the first time (``M`` less repeats).
     shared : bool
@@ -168,7 +176,7 @@ def reveal_team(
         )
     # 2. Per robot, those it knows for the first time and the team did not know.
     found = np.empty(total, dtype=np.int64)
-    found_starts = np.zeros(robots + 1, dtype=np.int64)
+    found_starts[0] = 0
     count = 0
     for k in range(robots):
         revealed = collect_truth(
@@ -194,4 +202,7 @@ def reveal_team(
         if not team_known[truth]:
             team_known[truth] = True
             newly_team += 1
-    return found[:count], found_starts, newly_team, shared
+    if not shared:
+        for k in range(robots):
+            credit[k] = np.float64(found_starts[k + 1] - found_starts[k]) * cell_area
+    return found[:count], newly_team, shared

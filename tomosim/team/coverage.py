@@ -205,7 +205,9 @@ class TeamCoverage:
             raise ValueError(f"expected cells of {robots} robots, got {len(cells)}")
         lattices = [np.asarray(observed, dtype=np.int64).reshape(-1, 2) for observed in cells]
         starts = np.array([0, *itertools.accumulate(len(lattice) for lattice in lattices)])
-        found, found_starts, newly, shared = reveal_team(
+        found_starts = np.empty(robots + 1, dtype=np.int64)
+        credit = np.empty(robots)
+        found, newly, shared = reveal_team(
             np.ascontiguousarray(np.concatenate(lattices)),
             starts,
             self._origins,
@@ -216,17 +218,19 @@ class TeamCoverage:
             self._robot_counts,
             self.team_known,
             self._finders,
+            found_starts,
+            credit,
+            self.cell_area,
         )
         self._team_count += newly
         if not shared:  # every cell has one finder: credit is the count, exactly
-            found_counts = (found_starts[1:] - found_starts[:-1]).astype(np.float64)
-            return found_counts * self.cell_area
+            return credit
         fresh = [found[found_starts[k] : found_starts[k + 1]] for k in range(robots)]
         finders = np.zeros(self.total, dtype=np.int32)
         for found_k in fresh:
             finders[found_k] += 1
-        credit = np.array([float(np.sum(1.0 / finders[found_k])) for found_k in fresh])
-        return credit * self.cell_area
+        shares = np.array([float(np.sum(1.0 / finders[found_k])) for found_k in fresh])
+        return shares * self.cell_area
 
     def known_mask(self) -> NDArray[np.bool_]:
         """``(rows, cols)`` mask over the truth grid of the free cells the team knows."""

@@ -183,7 +183,8 @@ class TeamSession:
         self.simulation.step(commands)
         self._grids = None
         self.rewards = self.coverage.reveal([m.take_journal() for m in self.simulation.maps])
-        self.reach = self._reach_groups()
+        if not self.config.comms.unlimited:  # without a range, everyone stays in reach
+            self.reach = self._reach_groups()
         reach = None if self.config.comms.unlimited else self.reach
         scored = None
         if self.merger is not None and self.merger.due(self.steps):

@@ -9,7 +9,13 @@ import pytest
 
 from merging.grid import UNKNOWN
 from tomosim.kernels.crop import crop_max_pool
-from tomosim.kernels.logodds import beam_ends, code_thresholds, integrate_scan, ros_code
+from tomosim.kernels.logodds import (
+    SATURATED,
+    beam_ends,
+    code_thresholds,
+    integrate_scan,
+    ros_code,
+)
 from tomosim.kernels.raycast import cast_scan
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.mapping import (
@@ -19,6 +25,7 @@ from tomosim.mapping import (
     LogOddsMap,
     MappingConfig,
     integrate_rays,
+    ray_cells,
     ros_codes,
 )
 from tomosim.ray_geometry import cast_circles, cast_segments, cull_segments, segment_bounds
@@ -97,13 +104,15 @@ def test_ray_casting_kernel_on_shared_corners_and_collinear_walls() -> None:
 
 
 def test_ros_code_thresholds_match_the_exponential() -> None:
-    near = CODE_THRESHOLDS.astype(np.float32)  # float32 values at and beside each threshold
+    near = CODE_THRESHOLDS[:100].astype(np.float32)  # float32 values at and beside each one
+    beyond = np.array([-30.0, -8.0, -5.3, 5.3, 8.0, 30.0], np.float32)  # codes 0 and 100
     values = np.concatenate(
-        [np.linspace(-2.0, 3.5, 20001, dtype=np.float32), near, np.nextafter(near, np.inf)]
+        [np.linspace(-2.0, 3.5, 20001, dtype=np.float32), near, np.nextafter(near, np.inf), beyond]
     )
     expected = ros_codes(values[None, :], np.ones((1, len(values)), bool))[0]
     ours = np.array([ros_code(float(v), code_thresholds()) for v in values])
     np.testing.assert_array_equal(ours, expected)
+    assert set(ours[-len(beyond) :]) == {0, 100}
     clamped = ours[:20001]  # the clamp's range: 100 / (1 + e^2) = 11.9, 100 / (1 + e^-3.5) = 97.1
     assert clamped.min() == 12 and clamped.max() == 97
 
@@ -120,6 +129,18 @@ def random_scan(
     return origin, ends, rng.random(beams) < 0.7
 
 
+def first_observed(
+    observed: np.ndarray, origin: tuple[float, float], ends: np.ndarray, hit: np.ndarray
+) -> np.ndarray:
+    """The oracle of the kernel's fresh cells and their order: the cells unobserved before
+    the scan, in the order the scan's samples, then its hits, first reach them."""
+    passed, hits = ray_cells(origin, ends, hit, observed.shape[1])
+    sequence = np.concatenate([passed, hits])
+    _, first = np.unique(sequence, return_index=True)
+    order = sequence[np.sort(first)]
+    return order[~observed.reshape(-1)[order]]
+
+
 def test_log_odds_kernel_matches_the_numpy_model_scan_by_scan() -> None:
     config = MappingConfig()
     shape = (90, 120)
@@ -128,21 +149,28 @@ def test_log_odds_kernel_matches_the_numpy_model_scan_by_scan() -> None:
     kernel_logodds, kernel_observed = logodds.copy(), observed.copy()
     codes = np.full(shape, UNKNOWN, np.int8)
     stamps = np.zeros(shape, np.uint8)
-    for scan in range(1, 40):
-        origin, ends, hit = random_scan(rng, shape, 90)
-        before = observed.copy()
+    scratch = np.zeros(200_000, np.int64)  # more than any of these scans needs
+    repeated = random_scan(rng, shape, 90)
+    for scan in range(1, 60):
+        # The last scans repeat one: its passes reach the lower clamp, its hits the upper.
+        origin, ends, hit = random_scan(rng, shape, 90) if scan <= 40 else repeated
+        expected_fresh = first_observed(observed, origin, ends, hit)
         integrate_rays(logodds, observed, origin, ends, hit, config)
         fresh = integrate_scan(
             kernel_logodds, kernel_observed, codes, stamps, scan, origin[0], origin[1], ends, hit,
             config.log_odds_hit, config.log_odds_miss, config.log_odds_min, config.log_odds_max,
-            SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS,
+            SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS, scratch,
         )  # fmt: skip
         np.testing.assert_array_equal(kernel_logodds, logodds)
         np.testing.assert_array_equal(kernel_observed, observed)
         np.testing.assert_array_equal(codes, ros_codes(logodds, observed))
-        np.testing.assert_array_equal(np.sort(fresh), np.flatnonzero(observed & ~before))
+        np.testing.assert_array_equal(fresh, expected_fresh)
+        # The saturation flag marks exactly the cells at the clamp.
+        saturated = (stamps & SATURATED) != 0
+        np.testing.assert_array_equal(saturated, logodds == np.float32(config.log_odds_min))
     assert np.count_nonzero(observed) > shape[0] * shape[1] // 3
-    assert np.any(logodds == np.float32(config.log_odds_min))  # the clamp was exercised
+    assert np.count_nonzero(logodds == np.float32(config.log_odds_min)) > 500  # clamp exercised
+    assert np.any(logodds == np.float32(config.log_odds_max))
 
 
 def test_a_map_matches_the_numpy_model_past_the_wrap_of_its_scan_numbers() -> None:
@@ -231,10 +259,27 @@ def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
         np.array([-1, 0, 10, 50, 100], np.int8), size=(40, 50), p=[0.5, 0.2, 0.1, 0.1, 0.1]
     )
     layer = rng.choice(np.array([-1, 0, 100], np.int8), size=(30, 30)) if with_layer else None
-    for start in [(-5, -7), (10, 12), (40, 30), (-40, -40)]:
+    # Windows partly off the grid, inside it across the layer's edge, off both, inside
+    # both, and inside the grid beside the layer.
+    for start in [(-5, -7), (10, 12), (40, 30), (-40, -40), (21, 16), (3, 0)]:
         expected = numpy_crop(own, (3, -2), layer, (20, 15), start, 8, pool)
         ours = crop_max_pool(
             own, 3, -2, layer if layer is not None else np.zeros((0, 0), np.int8), 20, 15,
             start[0], start[1], 8, pool,
         )  # fmt: skip
         np.testing.assert_array_equal(ours, expected)
+
+
+def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None:
+    config = MappingConfig()
+    shape = (90, 120)
+    origin, ends, hit = random_scan(np.random.default_rng(3), shape, 90)
+    logodds = np.zeros(shape, np.float32)
+    with pytest.raises(ValueError, match="scratch memory is too small"):
+        integrate_scan(
+            logodds, np.zeros(shape, bool), np.full(shape, UNKNOWN, np.int8),
+            np.zeros(shape, np.uint8), 1, origin[0], origin[1], ends, hit,
+            config.log_odds_hit, config.log_odds_miss, config.log_odds_min, config.log_odds_max,
+            SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS, np.zeros(10, np.int64),
+        )  # fmt: skip
+    assert not np.any(logodds)  # refused before it changed anything
