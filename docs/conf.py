@@ -54,8 +54,9 @@ autodoc_member_order = "bysource"
 autodoc_typehints = "none"  # the numpydoc sections state types in words
 autodoc_class_signature = "separated"
 
-# envs.sb3 builds on Stable-Baselines3 (the rl extra); the reference needs only its names.
-autodoc_mock_imports = ["stable_baselines3"]
+# envs.sb3 builds on Stable-Baselines3 (the rl extra), envs.rllib on RLlib and torch (the
+# rllib extra); the reference needs only their names, so it builds without the extras.
+autodoc_mock_imports = ["stable_baselines3", "ray", "torch"]
 
 numpydoc_show_class_members = False  # the autodoc members stand under the class
 numpydoc_class_members_toctree = False
@@ -75,11 +76,13 @@ _EXTERNAL = (
     "numpy",
     "pettingzoo",
     "pymunk",
+    "ray",
     "rerun",
     "scipy",
     "skimage",
     "stable_baselines3",
     "supersuit",
+    "torch",
     "typing",
 )
 # argparse's ArgumentParser.error documents its signature as ``error(message: string)``.

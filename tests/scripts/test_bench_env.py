@@ -9,7 +9,7 @@ from types import ModuleType
 
 import pytest
 
-from tests.merging.conftest import REPO_ROOT, load_script
+from tests.support import REPO_ROOT, load_script
 
 
 @pytest.fixture
