@@ -7,6 +7,7 @@ import pytest
 
 from envs import multi_robot_exploration_v0 as exploration
 from envs.observations import normalise, observe
+from tomosim.team import TeamConfig
 
 SMALL = {"world_size": (12.0, 9.0), "robots": 3}
 """A small floor with three robots: quick to step."""
@@ -18,7 +19,9 @@ the true start poses, below) and teammate-map refreshes."""
 @pytest.mark.parametrize("observation_format", ["metric", "normalised"])
 def test_team_observations_equal_each_robot_s_own(observation_format: str) -> None:
     env = exploration.parallel_env(
-        **SMALL, merge_interval=20, method="oracle", observation_format=observation_format
+        **SMALL,
+        team=TeamConfig(merge_interval=20, method="oracle"),
+        observation_format=observation_format,
     )
     observations, _ = env.reset(seed=4)
     generator = np.random.default_rng(5)
