@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.validators import real_number, whole_number
 from tomosim.ray_geometry import distance_to_segments
+from tomosim.robot import ROBOT_RADIUS_M
 from tomosim.worlds.world import as_segments
 
 MAX_SUBSTEP_TRAVEL = 0.25
@@ -67,7 +68,7 @@ class PhysicsConfig:
         pymunk solver iterations per substep.
     """
 
-    robot_radius: float = 0.2
+    robot_radius: float = ROBOT_RADIUS_M
     robot_mass: float = 10.0
     max_linear_speed: float = 1.0
     max_angular_speed: float = 2.0

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.validators import real_number
 from tomosim.lidar import Scan
+from tomosim.robot import ROBOT_RADIUS_M
 
 
 @dataclass(frozen=True)
@@ -56,7 +57,7 @@ class ControllerConfig:
     goal_tolerance: float = 0.3
     stop_distance: float = 0.1
     guard_half_angle: float = math.radians(35.0)
-    robot_radius: float = 0.2
+    robot_radius: float = ROBOT_RADIUS_M
 
     def __post_init__(self) -> None:
         for name in (

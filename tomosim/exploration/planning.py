@@ -23,6 +23,7 @@ from skimage.graph import MCP_Geometric
 from merging.grid import OCCUPIED_THRESHOLD, OccupancyGrid
 from merging.validators import real_number
 from tomosim.exploration.frontiers import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL, coarsen
+from tomosim.robot import ROBOT_RADIUS_M
 
 CROP_MARGIN_CELLS = 2
 """Planning-grid cells kept around the known area when cropping the wavefront."""
@@ -56,7 +57,7 @@ class PlannerConfig:
     """
 
     resolution: float = 0.1
-    robot_radius: float = 0.2
+    robot_radius: float = ROBOT_RADIUS_M
     inflation_margin: float = 0.1
     wall_penalty_distance: float = 0.8
     wall_penalty: float = 4.0
