@@ -86,3 +86,10 @@ def test_readme_python_snippet_runs(index, tmp_path, monkeypatch):
 
 def test_readme_has_python_snippets():
     assert len(python_snippets()) >= 2, "the README shows merging and the environment"
+
+
+def test_the_torch_build_the_readme_installs_is_the_extras_pin() -> None:
+    pyproject = (README.parent / "pyproject.toml").read_text(encoding="utf-8")
+    pins = set(re.findall(r'"torch==([\d.]+)"', pyproject))
+    shown = set(re.findall(r"torch==([\d.]+)", readme()))
+    assert len(pins) == 1 and shown == pins, f"README installs torch {shown}, the extras pin {pins}"
