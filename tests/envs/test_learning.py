@@ -183,6 +183,7 @@ def test_sb3_adapter_seeds_marks_truncation_and_keeps_final_infos() -> None:
     assert infos[0]["team_coverage"] != final  # the reset's value, as SuperSuit merges it
 
 
+@pytest.mark.slow
 @needs_rl
 def test_sb3_adapter_names_each_entry_s_seed_and_renders() -> None:
     from envs.vector import make_sb3_vector_env

@@ -24,6 +24,7 @@ def test_a_folder_that_is_no_checkout_is_refused_by_name(bench: ModuleType, tmp_
         bench.Checkout(tmp_path)
 
 
+@pytest.mark.slow
 def test_a_checkout_whose_environment_is_imported_from_elsewhere_is_refused(
     bench: ModuleType, tmp_path: Path
 ) -> None:

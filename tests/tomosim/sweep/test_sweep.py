@@ -93,6 +93,7 @@ def test_plan_rejects_bad_values(field: str, value: tuple, message: str) -> None
         SweepPlan(**{field: value})
 
 
+@pytest.mark.slow
 def test_process_and_ray_give_the_same_rows(tmp_path: Path) -> None:
     pytest.importorskip("ray", reason='Ray is optional: pip install "tomosim[ray]"')
     plan = four_episodes()
