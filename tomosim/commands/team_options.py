@@ -5,8 +5,10 @@ they make.
 ``merge_interval`` and ``comms`` of the team; each command adds its own way
 of choosing the merging method (``explore``: ``--method`` and ``--no-merge``;
 ``sweep``: ``--methods``, a dimension of its grid). Their defaults are the
-team's own (:class:`~tomosim.team.TeamConfig`); every other team setting keeps
-its default on the command line.
+team's own (:class:`~tomosim.team.TeamConfig`). ``--team NAME=VALUE`` (repeatable)
+sets any other team setting by its dotted name (:mod:`tomosim.team.overrides`):
+``--team confirmations=3 --team tracker.keep_confidence=0.55 --team
+simulation.lidar.beams=180``.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import Any
 from merging.validators import real_number, whole_number
 from tomosim.commands import UsageError
 from tomosim.team import CommsConfig, TeamConfig
+from tomosim.team.overrides import with_settings
 
 DEFAULT_TEAM = TeamConfig()
 """The team without options."""
@@ -44,6 +47,15 @@ def add_team_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--line-of-sight", action="store_true", help="walls block communication (with --comm-range)"
     )
+    parser.add_argument(
+        "--team",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="set any other team setting by its dotted name, e.g. confirmations=3, "
+        "tracker.keep_confidence=0.55, simulation.lidar.beams=180 (repeatable; the names: "
+        "tomosim.team.overrides.setting_names())",
+    )
 
 
 def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
@@ -57,11 +69,38 @@ def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
         raise UsageError(str(error)) from None
     if args.line_of_sight and args.comm_range is None:
         raise UsageError("--line-of-sight needs --comm-range")
+    settings = team_settings(getattr(args, "team", []))
     try:
-        return TeamConfig(
+        team = TeamConfig(
             merge_interval=args.merge_interval,
             comms=CommsConfig(args.comm_range, args.line_of_sight),
             **fields,
         )
+        return with_settings(team, settings)
     except ValueError as error:
-        raise UsageError(str(error)) from None
+        raise UsageError(f"--team: {error}" if settings else str(error)) from None
+
+
+OWN_OPTIONS = {
+    "merge": "--no-merge",
+    "method": "--method",
+    "merge_interval": "--merge-interval",
+    "comms.range": "--comm-range",
+    "comms.line_of_sight": "--line-of-sight",
+}
+"""Team settings that have options of their own, which ``--team`` leaves to them."""
+
+
+def team_settings(pairs: list[str]) -> dict[str, str]:
+    """The ``NAME=VALUE`` pairs of ``--team`` as a mapping; :class:`UsageError` for a pair
+    that is not one, or a setting that has its own option."""
+    settings: dict[str, str] = {}
+    for pair in pairs:
+        name, equals, value = pair.partition("=")
+        name = name.strip()
+        if not equals or not name or not value.strip():
+            raise UsageError(f"--team takes NAME=VALUE (e.g. confirmations=3), got {pair!r}")
+        if name in OWN_OPTIONS:
+            raise UsageError(f"--team {name}: use {OWN_OPTIONS[name]} instead")
+        settings[name] = value
+    return settings

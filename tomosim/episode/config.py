@@ -18,6 +18,7 @@ from merging.catalog import find_map
 from merging.validators import SettingTypeError, one_of, real_number, whole_number
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.team.config import TeamConfig
+from tomosim.team.overrides import changed_settings
 from tomosim.worlds import World, generate_floorplan, world_from_map
 
 DEFAULT_WORLD_SEED = 0
@@ -147,9 +148,14 @@ class EpisodeConfig:
         return replace(self, team=replace(self.team, **changes))
 
     def settings(self, world: World) -> dict[str, Any]:
-        """Plain values describing the episode (recorded with it and printed in reports)."""
+        """Plain values describing the episode (recorded with it and printed in reports).
+
+        The team's other settings, where they differ from the defaults, are under
+        ``team`` by their dotted names (:func:`tomosim.team.overrides.changed_settings`);
+        a team of defaults adds nothing.
+        """
         team = self.team
-        return {
+        settings = {
             "world": world.name,
             "world_spec": str(self.world),
             "robots": int(self.robots),
@@ -164,3 +170,12 @@ class EpisodeConfig:
             "seed": int(self.seed),
             "dt": float(team.simulation.dt),
         }
+        listed = ("merge", "merge_interval", "method", "comms.range", "comms.line_of_sight")
+        others = {
+            name: value
+            for name, value in changed_settings(team).items()
+            if name not in listed and name != "simulation.dt"
+        }
+        if others:
+            settings["team"] = others
+        return settings
