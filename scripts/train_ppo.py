@@ -37,15 +37,14 @@ from __future__ import annotations
 import argparse
 import csv
 import importlib.util
-import json
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from policy_comparison.curves import plot_curve
-from policy_comparison.evaluation import Agents, compare, print_comparison
+from policy_comparison.evaluation import Agents, compare
+from policy_comparison.report import write_run_outputs
 
 from envs import multi_robot_exploration_v0 as exploration
 from envs.vector import RL_INSTALL, make_sb3_vector_env
@@ -226,18 +225,14 @@ def main() -> None:
         "evaluation": evaluation,
         "constant_actions": constants,
     }
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
-    plot_curve(
-        curve,
-        args.out / "learning_curve.png",
+    write_run_outputs(
+        args.out,
         summary,
+        curve,
         title=f"PPO, one policy for {summary['robots']} robots, {summary['timesteps']} timesteps "
         f"({summary['training_seconds'] / 60:.0f} min)",
         points="training episodes",
     )
-    print(f"trained {summary['timesteps']} timesteps in {training_seconds:.0f} s; held-out floors:")
-    print_comparison(summary)
-    print(f"outputs in {args.out}")
 
 
 if __name__ == "__main__":

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import sys
 import time
@@ -46,8 +45,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from policy_comparison.curves import plot_curve
-from policy_comparison.evaluation import Agents, compare, print_comparison
+from policy_comparison.evaluation import Agents, compare
+from policy_comparison.report import write_run_outputs
 
 from envs import multi_robot_exploration_v0 as exploration
 from envs.learning_metrics import EPISODE_SCALARS
@@ -315,19 +314,15 @@ def main() -> None:
         "evaluation": evaluation,
         "constant_actions": constants,
     }
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
     sharing = "one policy shared by" if args.policies == "shared" else "one policy for each of"
-    plot_curve(
-        args.out / "learning_curve.csv",
-        args.out / "learning_curve.png",
+    write_run_outputs(
+        args.out,
         summary,
+        args.out / "learning_curve.csv",
         title=f"RLlib PPO, {sharing} {args.robots} robots, {timesteps} timesteps "
         f"({training_seconds / 60:.0f} min)",
         points="training iterations (mean of their episodes)",
     )
-    print(f"trained {timesteps} agent-steps in {training_seconds:.0f} s; held-out floors:")
-    print_comparison(summary)
-    print(f"outputs in {args.out}")
 
 
 if __name__ == "__main__":

@@ -3,5 +3,7 @@
 * :mod:`policy_comparison.evaluation`: a trained policy, random actions, the
   best constant action and the frontier policy on the same held-out episodes;
 * :mod:`policy_comparison.curves`: the learning curve's plot, with those
-  policies' figures as lines.
+  policies' figures as lines;
+* :mod:`policy_comparison.report`: a finished run's ``summary.json``, plot and
+  printout.
 """
