@@ -155,6 +155,12 @@ class TeamCoverage:
         """Fraction of the counted free cells robot ``robot`` knows."""
         return int(self._robot_counts[robot]) / self.total if self.total else 0.0
 
+    def robot_fractions(self) -> NDArray[np.float64]:
+        """``(N,)`` :meth:`robot_fraction` of every robot (the same numbers; a new array)."""
+        if not self.total:
+            return np.zeros(len(self._robot_counts))
+        return self._robot_counts / self.total
+
     def update(self, grids: Sequence[OccupancyGrid]) -> NDArray[np.float64]:
         """Take in the robots' whole grids; returns the square metres each discovered.
 
