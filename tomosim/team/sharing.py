@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from merging.grid import UNKNOWN, OccupancyGrid
 from merging.validators import whole_number
 from merging.warp import warp_cells
-from tomosim.kernels.crop import crop_max_pool
+from tomosim.kernels.crop import crop_max_pool_into
 from tomosim.team.merger import TeamMerge
 
 ANCHOR_TOLERANCE = 1e-6
@@ -327,19 +327,38 @@ class SharedMaps:
         """:meth:`crop` of the robot's own cells given as an array on its lattice, its
         cell ``(0, 0)`` at lattice ``anchor`` (no grid needed: a live map's cells will do)."""
         x, y = (float(v) for v in np.asarray(centre, dtype=float)[:2])
+        out = np.empty((size, size), dtype=np.int8)
+        self.crop_into(out, robot, cells, anchor, resolution, x, y, pool=pool)
+        return out
+
+    def crop_into(
+        self,
+        out: NDArray[np.int8],
+        robot: int,
+        cells: NDArray[np.int8],
+        anchor: tuple[int, int],
+        resolution: float,
+        x: float,
+        y: float,
+        *,
+        pool: int,
+    ) -> None:
+        """:meth:`crop_cells` around ``(x, y)`` (metres, floats) written into ``out``, a
+        C-contiguous ``(size, size)`` int8 array (a row of the team's observations)."""
+        size = out.shape[0]
         fine = size * pool
-        start = (math.floor(x / resolution) - fine // 2, math.floor(y / resolution) - fine // 2)
         layer = self._layers[robot]
         mates, mates_anchor = layer if layer is not None else (NO_LAYER, (0, 0))
-        return crop_max_pool(
+        crop_max_pool_into(
+            out,
             cells,
             anchor[0],
             anchor[1],
             mates,
             mates_anchor[0],
             mates_anchor[1],
-            start[0],
-            start[1],
+            math.floor(x / resolution) - fine // 2,
+            math.floor(y / resolution) - fine // 2,
             size,
             pool,
         )
