@@ -11,10 +11,13 @@ from merging.grid import UNKNOWN
 from tomosim.kernels.crop import crop_max_pool
 from tomosim.kernels.logodds import (
     SATURATED,
+    beam_cells,
+    beam_cells_narrow,
     beam_ends,
     code_thresholds,
     integrate_scan,
     ros_code,
+    saturated_run,
 )
 from tomosim.kernels.raycast import cast_scan
 from tomosim.lidar import Lidar, LidarConfig
@@ -268,6 +271,31 @@ def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
             start[0], start[1], 8, pool,
         )  # fmt: skip
         np.testing.assert_array_equal(ours, expected)
+
+
+def test_beam_cells_in_32_bits_are_the_64_bit_ones() -> None:
+    rng = np.random.default_rng(12)
+    cols = 517
+    for _ in range(200):
+        samples = int(rng.integers(1, 300))
+        step = rng.uniform(-1, 1, 2).astype(np.float32)
+        offset = rng.uniform(300, 320, 2).astype(np.float32)
+        wide, narrow = np.zeros(samples, np.int64), np.zeros(samples, np.int32)
+        beam_cells(step[0], step[1], offset[0], offset[1], samples, cols, wide)
+        beam_cells_narrow(step[0], step[1], offset[0], offset[1], samples, np.int32(cols), narrow)
+        np.testing.assert_array_equal(narrow, wide)
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_saturated_run_finds_the_first_cell_not_saturated(dtype: type) -> None:
+    rng = np.random.default_rng(13)
+    stamp = np.where(rng.random(5000) < 0.97, SATURATED | 5, 5).astype(np.uint8)
+    for samples in [*range(0, 20), 50, 123]:  # runs ending in and after a chunk of 8
+        for _ in range(20):
+            beam = rng.integers(0, len(stamp), samples).astype(dtype)
+            not_saturated = np.flatnonzero(stamp[beam] < SATURATED)
+            expected = int(not_saturated[0]) if len(not_saturated) else samples
+            assert saturated_run(stamp, beam, samples) == expected
 
 
 def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None:
