@@ -20,6 +20,7 @@ from tomosim.kernels.logodds import (
     saturated_run,
 )
 from tomosim.kernels.raycast import cast_scan
+from tomosim.kernels.reveal import first_of_keys, truth_under, truth_under_table
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.mapping import (
     CODE_THRESHOLDS,
@@ -311,3 +312,17 @@ def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None
             SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS, np.zeros(10, np.int64),
         )  # fmt: skip
     assert not np.any(logodds)  # refused before it changed anything
+
+
+def test_truth_under_looks_keys_up_as_the_binary_search_finds_them() -> None:
+    rng = np.random.default_rng(14)
+    keys = np.sort(rng.integers(0, 400, 300))  # repeated keys, and gaps
+    table = first_of_keys(keys)
+    assert table.shape == (keys[-1] + 1,)
+    cells = rng.integers(-5, 30, (500, 2))  # some off the keys' lattice on either side
+    searched, looked_up = np.empty(500, np.int64), np.empty(500, np.int64)
+    total = truth_under(cells, 2, 3, 20, keys, searched)
+    assert truth_under_table(cells, 2, 3, 20, keys, table, looked_up) == total > 0
+    np.testing.assert_array_equal(looked_up, searched)
+    assert np.count_nonzero(searched >= 0) > 50  # many cells found, many not
+    assert first_of_keys(np.zeros(0, np.int64)).shape == (0,)
