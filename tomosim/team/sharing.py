@@ -181,7 +181,15 @@ class SharedMaps:
         ``TeamConfig.share_interval``).
     """
 
-    __slots__ = ("_layers", "_links", "_received", "_refreshed", "count", "refresh_interval")
+    __slots__ = (
+        "_layers",
+        "_links",
+        "_next_due",
+        "_received",
+        "_refreshed",
+        "count",
+        "refresh_interval",
+    )
 
     def __init__(self, count: int, *, refresh_interval: int) -> None:
         self.count = whole_number(count, "count", minimum=1, unit="robots")
@@ -192,6 +200,7 @@ class SharedMaps:
         self._layers: list[tuple[NDArray[np.int8], tuple[int, int]] | None] = [None] * count
         self._refreshed: list[int | None] = [None] * count
         self._received: list[dict[int, OccupancyGrid]] = [{} for _ in range(count)]
+        self._next_due = math.inf  # the first step a layer is due at (due() asks each step)
 
     def link(self, merge: TeamMerge | None, *, reach: ArrayLike | None = None) -> None:
         """Adopt the links of a merge round (None: every robot alone); layers are rebuilt
@@ -230,6 +239,7 @@ class SharedMaps:
         self._layers[robot] = None
         self._refreshed[robot] = None
         self._received[robot] = {k: g for k, g in self._received[robot].items() if k in links}
+        self._update_next_due()
 
     def teammates(self, robot: int) -> tuple[int, ...]:
         """Robots whose maps robot ``robot`` sees in its best map."""
@@ -242,9 +252,18 @@ class SharedMaps:
 
     def due(self, step: int) -> bool:
         """Whether :meth:`refresh` at ``step`` would rebuild some robot's layer."""
-        return any(
-            links and (last is None or step - last >= self.refresh_interval)
-            for links, last in zip(self._links, self._refreshed, strict=True)
+        return step >= self._next_due
+
+    def _update_next_due(self) -> None:
+        """Keep the first step at which a linked robot's layer is due (``-inf`` for one
+        never built, ``inf`` with no links)."""
+        self._next_due = min(
+            (
+                -math.inf if last is None else last + self.refresh_interval
+                for links, last in zip(self._links, self._refreshed, strict=True)
+                if links
+            ),
+            default=math.inf,
         )
 
     def refresh(
@@ -268,6 +287,7 @@ class SharedMaps:
                 [received[k] for k in others], [links[k] for k in others], grids[robot].resolution
             )
             self._refreshed[robot] = step
+        self._update_next_due()
 
     def best_grid(self, robot: int, grids: Sequence[OccupancyGrid]) -> OccupancyGrid:
         """Robot ``robot``'s best map as a grid in its own frame (yaw 0, on its lattice)."""

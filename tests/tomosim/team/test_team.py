@@ -217,6 +217,23 @@ def test_best_map_keeps_own_cells_and_fills_the_rest_from_teammates() -> None:
     assert shared.best_grid(1, [own, mate]) is mate  # robot 1 links to nobody
 
 
+def test_shared_maps_are_due_when_a_linked_robots_layer_is() -> None:
+    rng = np.random.default_rng(6)
+    grids = [lattice_grid(rng, (20, 20), (0, 0)) for _ in range(3)]
+    shared = SharedMaps(3, refresh_interval=10)
+    assert not shared.due(0) and not shared.due(10**6)  # nobody linked
+    shared.set_links(0, {1: np.eye(3)})
+    assert shared.due(0)  # a new link's layer is built at the next refresh
+    shared.refresh(4, grids)
+    assert not shared.due(13) and shared.due(14)
+    shared.set_links(2, {1: np.eye(3)})
+    assert shared.due(5)
+    shared.refresh(7, grids)  # robot 2's layer now; robot 0's is not due before 14
+    assert not shared.due(13) and shared.due(14)
+    shared.set_links(0, {})
+    assert not shared.due(16) and shared.due(17)
+
+
 def test_crop_is_centred_and_pools_by_maximum() -> None:
     data = np.full((40, 40), UNKNOWN, np.int8)
     data[20, 20] = 0  # the robot's cell, free
