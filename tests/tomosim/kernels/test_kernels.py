@@ -19,7 +19,7 @@ from tomosim.kernels.logodds import (
     ros_code,
     saturated_run,
 )
-from tomosim.kernels.raycast import cast_scan
+from tomosim.kernels.raycast import TWO_PI, cast_scan, turn_remainder
 from tomosim.kernels.reveal import first_of_keys, truth_under, truth_under_table
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.mapping import (
@@ -326,3 +326,11 @@ def test_truth_under_looks_keys_up_as_the_binary_search_finds_them() -> None:
     np.testing.assert_array_equal(looked_up, searched)
     assert np.count_nonzero(searched >= 0) > 50  # many cells found, many not
     assert first_of_keys(np.zeros(0, np.int64)).shape == (0,)
+
+
+def test_turn_remainder_is_the_modulo_bit_for_bit() -> None:
+    rng = np.random.default_rng(15)
+    edges = [0.0, -0.0, TWO_PI, -TWO_PI, math.pi, -math.pi, 1e-300, -1e-300]
+    edges += [float(np.nextafter(e, d)) for e in (TWO_PI, -TWO_PI, 0.0) for d in (-9, 9)]
+    for angle in [*edges, *rng.uniform(-20, 20, 2000), *rng.uniform(-1e-9, 1e-9, 100)]:
+        assert np.float64(turn_remainder(angle)).tobytes() == np.float64(angle % TWO_PI).tobytes()
