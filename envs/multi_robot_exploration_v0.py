@@ -435,7 +435,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
     def _follow(self, merge: RoundQuality | None) -> None:
         """Take in a step's path lengths and coverages, and its merge round if one ran."""
         assert self._tracker is not None and self.session is not None  # start() made them
-        self._tracker.update(self.session)
+        self._tracker.advance(self.session)
         if merge is not None:
             accepted = merge.accepted
             self._pair_counts += (1, len(accepted), sum(p.confirmed for p in accepted))

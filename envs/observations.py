@@ -162,8 +162,7 @@ def observe_team(
         dtype=np.float32,
     )
     maps = np.empty((simulation.count, size, size), dtype=np.int8)
-    for robot in range(simulation.count):
-        maps[robot] = session.best_crop(robot, size=size, pool=pool)
+    session.best_crops(maps, pool=pool)
     return scans, maps, poses
 
 

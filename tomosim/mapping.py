@@ -273,9 +273,6 @@ class LogOddsMap:
         Log-odds per cell, row 0 at ``origin``.
     observed : (rows, cols) bool ndarray
         Cells any scan has touched.
-    origin : (float, float)
-        Map-frame coordinates (metres) of the outer corner of cell ``(0, 0)``;
-        always a whole number of cells from the frame's origin.
     journal : list of (K, 2) int64 ndarray or None
         When a list (see :meth:`start_journal`), every update appends the
         lattice cells ``(a, b)`` it observed for the first time (cell
@@ -284,7 +281,10 @@ class LogOddsMap:
     """
 
     __slots__ = (
+        "_anchor",
         "_cells",
+        "_cells_view",
+        "_origin",
         "_scans",
         "_scratch",
         "_stamps",
@@ -293,7 +293,6 @@ class LogOddsMap:
         "journal",
         "logodds",
         "observed",
-        "origin",
     )
 
     def __init__(self, config: MappingConfig | None = None) -> None:
@@ -307,6 +306,7 @@ class LogOddsMap:
         # number of the last scan that passed it and whether it is saturated (the
         # kernel's stamps), and the kernel's working memory, kept between scans.
         self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
+        self._cells_view = _read_only(self._cells)
         self._stamps = np.zeros((side, side), dtype=STAMP_DTYPE)
         self._scans = 0
         self._scratch = np.zeros(0, dtype=np.int64)
@@ -319,18 +319,27 @@ class LogOddsMap:
         return (int(self.logodds.shape[0]), int(self.logodds.shape[1]))
 
     @property
+    def origin(self) -> tuple[float, float]:
+        """Map-frame coordinates (metres) of the outer corner of cell ``(0, 0)``; always a
+        whole number of cells from the frame's origin."""
+        return self._origin
+
+    @origin.setter
+    def origin(self, corner: tuple[float, float]) -> None:
+        self._origin = corner
+        res = self.config.resolution  # kept with it: every scan and observation asks for it
+        self._anchor = (round(corner[0] / res), round(corner[1] / res))
+
+    @property
     def anchor(self) -> tuple[int, int]:
         """Lattice index ``(a0, b0)`` of cell ``(0, 0)`` (``origin`` in whole cells)."""
-        res = self.config.resolution
-        return round(self.origin[0] / res), round(self.origin[1] / res)
+        return self._anchor
 
     @property
     def cells(self) -> NDArray[np.int8]:
         """The ROS-coded grid as it is now: a read-only view that later updates change
-        (:meth:`to_occupancy_grid` gives a copy)."""
-        view = self._cells.view()
-        view.flags.writeable = False
-        return view
+        (:meth:`to_occupancy_grid` gives a copy); the same view until the grid grows."""
+        return self._cells_view
 
     def start_journal(self) -> None:
         """Record from now on the cells each update observes first (``journal``)."""
@@ -373,6 +382,7 @@ class LogOddsMap:
         self.logodds = np.pad(self.logodds, widths)
         self.observed = np.pad(self.observed, widths)
         self._cells = np.pad(self._cells, widths, constant_values=UNKNOWN)
+        self._cells_view = _read_only(self._cells)
         self._stamps = np.pad(self._stamps, widths)
         self.origin = (ox - left * res, oy - bottom * res)
 
@@ -402,15 +412,16 @@ class LogOddsMap:
             self._scans = self._scans % SCAN_NUMBER_BITS + 1
             if self._scans == 1:
                 np.bitwise_and(self._stamps, STAMP_DTYPE(SATURATED), out=self._stamps)
-            a0, b0 = self.anchor
+            a0, b0 = self._anchor
+            origin_x, origin_y = self._origin
             status, fresh = update_grid(
                 self.logodds,
                 self.observed,
                 self._cells,
                 self._stamps,
                 self._scans,
-                self.origin[0],
-                self.origin[1],
+                origin_x,
+                origin_y,
                 cfg.resolution,
                 x,
                 y,
@@ -461,6 +472,13 @@ class LogOddsMap:
             resolution=self.config.resolution,
             origin=(self.origin[0], self.origin[1], 0.0),
         )
+
+
+def _read_only(cells: NDArray[np.int8]) -> NDArray[np.int8]:
+    """A read-only view of ``cells``."""
+    view = cells.view()
+    view.flags.writeable = False
+    return view
 
 
 def update_maps(

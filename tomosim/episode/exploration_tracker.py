@@ -81,42 +81,60 @@ class ExplorationTracker:
     ----------
     team_curve : list of float
         Team coverage after each step, from step 0.
-    robot_curves : list of list of float
-        Per robot, its own coverage after each step.
-    last : StepFigures
-        The figures of the latest step.
     """
 
-    __slots__ = ("_last", "_paths", "last", "robot_curves", "team_curve")
+    __slots__ = ("_figures", "_last", "_paths", "_robot_rows", "_step", "team_curve")
 
     def __init__(self, session: TeamSession) -> None:
         self._last = session.simulation.true_poses[:, :2]
         self._paths = np.zeros(session.count)
         self.team_curve: list[float] = []
-        self.robot_curves: list[list[float]] = [[] for _ in range(session.count)]
-        self.last = self.update(session, moved=False)
+        self._robot_rows: list[NDArray[np.float64]] = []  # per step, each robot's coverage
+        self._step = session.steps
+        self._figures: StepFigures | None = None
+        self.advance(session, moved=False)
 
     def update(self, session: TeamSession, *, moved: bool = True) -> StepFigures:
         """Take in the session after a step; returns the step's figures."""
+        self.advance(session, moved=moved)
+        return self.last
+
+    def advance(self, session: TeamSession, *, moved: bool = True) -> None:
+        """:meth:`update` without building the step's figures (``last`` builds them when
+        asked): what a caller that wants them only at the end takes in at every step."""
         if moved:
             now = session.simulation.true_poses[:, :2]
-            self._paths += np.hypot(*(now - self._last).T)
+            travel = now - self._last
+            self._paths += np.hypot(travel[:, 0], travel[:, 1])
             self._last = now
-        team = session.coverage.fraction
-        robots = tuple(session.coverage.robot_fraction(k) for k in range(session.count))
-        self.team_curve.append(team)
-        for curve, value in zip(self.robot_curves, robots, strict=True):
-            curve.append(value)
-        self.last = StepFigures(
-            step=session.steps,
-            team_coverage=team,
-            robot_coverage=robots,
-            path_lengths=tuple(float(v) for v in self._paths),
-            overlap_rate=overlap_rate(robots, team),
-        )
-        return self.last
+        coverage = session.coverage
+        self.team_curve.append(coverage.fraction)
+        self._robot_rows.append(coverage.robot_fractions())
+        self._step = session.steps
+        self._figures = None
+
+    @property
+    def last(self) -> StepFigures:
+        """The figures of the latest step."""
+        if self._figures is None:
+            robots = self._robot_rows[-1]
+            team = self.team_curve[-1]
+            self._figures = StepFigures(
+                step=self._step,
+                team_coverage=team,
+                robot_coverage=tuple(robots.tolist()),
+                path_lengths=self.path_lengths,
+                overlap_rate=overlap_rate(robots, team),
+            )
+        return self._figures
+
+    @property
+    def robot_curves(self) -> list[list[float]]:
+        """Per robot, its own coverage after each step, from step 0 (new lists each call)."""
+        rows = (row.tolist() for row in self._robot_rows)
+        return [list(curve) for curve in zip(*rows, strict=True)]
 
     @property
     def path_lengths(self) -> tuple[float, ...]:
         """Per robot, metres travelled so far."""
-        return tuple(float(v) for v in self._paths)
+        return tuple(self._paths.tolist())

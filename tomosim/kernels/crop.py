@@ -54,6 +54,7 @@ def covers(cells: NDArray[np.int8], first_row: int, first_col: int, fine: int) -
 
 @kernel
 def pool_pairs(
+    out: NDArray[np.int8],
     own: NDArray[np.int8],
     own_row: int,
     own_col: int,
@@ -61,8 +62,8 @@ def pool_pairs(
     layer_row: int,
     layer_col: int,
     size: int,
-) -> NDArray[np.int8]:
-    """:func:`crop_max_pool` with ``pool = 2`` of a window that ``own`` covers, its cell
+) -> None:
+    """:func:`crop_max_pool_into` with ``pool = 2`` of a window that ``own`` covers, its cell
     ``(0, 0)`` at ``own[own_row, own_col]`` and at ``layer[layer_row, layer_col]`` (which
     may lie off the layer): each pair of fine rows is pooled from the grids' rows, an
     own row copied only where the layer holds unknown own cells' values."""
@@ -70,7 +71,6 @@ def pool_pairs(
     layer_rows, layer_cols = layer.shape
     first, last = max(0, -layer_col), min(width, layer_cols - layer_col)  # layer columns
     filled = np.empty((2, width), dtype=np.int8)
-    out = np.empty((size, size), dtype=np.int8)
     for i in range(size):
         upper = own[own_row + 2 * i, own_col : own_col + width]
         lower = own[own_row + 2 * i + 1, own_col : own_col + width]
@@ -93,7 +93,68 @@ def pool_pairs(
             target[j] = max(
                 max(upper[2 * j], upper[2 * j + 1]), max(lower[2 * j], lower[2 * j + 1])
             )
-    return out
+
+
+@kernel
+def crop_max_pool_into(
+    out: NDArray[np.int8],
+    own: NDArray[np.int8],
+    own_a: int,
+    own_b: int,
+    layer: NDArray[np.int8],
+    layer_a: int,
+    layer_b: int,
+    start_a: int,
+    start_b: int,
+    size: int,
+    pool: int,
+) -> None:
+    """:func:`crop_max_pool` written into ``out``, a ``(size, size)`` int8 array.
+
+    Parameters
+    ----------
+    out : (size, size) int8 ndarray
+        Where the window goes (it may be a row of a larger array).
+    own : (rows, cols) int8 ndarray
+        The robot's grid (ROS coding); its cell ``(0, 0)`` is lattice ``(own_a, own_b)``.
+    layer : (rows2, cols2) int8 ndarray
+        The teammate layer (ROS coding), anchored at ``(layer_a, layer_b)``; an
+        empty ``(0, 0)`` array when there is none.
+    start_a, start_b : int
+        Lattice cell of the window's first fine cell (its lowest ``a`` and ``b``).
+    size, pool : int
+        Output cells per side, and fine cells per output cell per side.
+    """
+    fine = size * pool
+    own_row, own_col = start_b - own_b, start_a - own_a
+    layer_row, layer_col = start_b - layer_b, start_a - layer_a
+    # 0. The default pool of 2 on a window inside the robot's grid (nearly always):
+    # pooled from the grids' rows, with no window built.
+    if pool == 2 and covers(own, own_row, own_col, fine):
+        pool_pairs(out, own, own_row, own_col, layer, layer_row, layer_col, size)
+        return
+    # 1. The fine window, by row slices: own cells, then the layer's where own are unknown.
+    window = np.full((fine, fine), np.int8(-1))
+    fill_window(window, own, own_row, own_col, False)
+    fill_window(window, layer, layer_row, layer_col, True)
+    # 2. The maximum of each block (pairs of rows and columns spelt out for the default).
+    if pool == 2:
+        for i in range(size):
+            upper = window[2 * i]
+            lower = window[2 * i + 1]
+            row = out[i]
+            for j in range(size):
+                row[j] = max(
+                    max(upper[2 * j], upper[2 * j + 1]), max(lower[2 * j], lower[2 * j + 1])
+                )
+        return
+    for i in range(size):
+        for j in range(size):
+            best = np.int8(-1)
+            for di in range(pool):
+                for dj in range(pool):
+                    best = max(best, window[i * pool + di, j * pool + dj])
+            out[i, j] = best
 
 
 @kernel
@@ -128,34 +189,8 @@ def crop_max_pool(
     (size, size) int8 ndarray
         Row ``i``, column ``j`` covers fine rows ``i * pool ...``, columns ``j * pool ...``.
     """
-    fine = size * pool
-    own_row, own_col = start_b - own_b, start_a - own_a
-    layer_row, layer_col = start_b - layer_b, start_a - layer_a
-    # 0. The default pool of 2 on a window inside the robot's grid (nearly always):
-    # pooled from the grids' rows, with no window built.
-    if pool == 2 and covers(own, own_row, own_col, fine):
-        return pool_pairs(own, own_row, own_col, layer, layer_row, layer_col, size)
-    # 1. The fine window, by row slices: own cells, then the layer's where own are unknown.
-    window = np.full((fine, fine), np.int8(-1))
-    fill_window(window, own, own_row, own_col, False)
-    fill_window(window, layer, layer_row, layer_col, True)
-    # 2. The maximum of each block (pairs of rows and columns spelt out for the default).
     out = np.empty((size, size), dtype=np.int8)
-    if pool == 2:
-        for i in range(size):
-            upper = window[2 * i]
-            lower = window[2 * i + 1]
-            row = out[i]
-            for j in range(size):
-                row[j] = max(
-                    max(upper[2 * j], upper[2 * j + 1]), max(lower[2 * j], lower[2 * j + 1])
-                )
-        return out
-    for i in range(size):
-        for j in range(size):
-            best = np.int8(-1)
-            for di in range(pool):
-                for dj in range(pool):
-                    best = max(best, window[i * pool + di, j * pool + dj])
-            out[i, j] = best
+    crop_max_pool_into(
+        out, own, own_a, own_b, layer, layer_a, layer_b, start_a, start_b, size, pool
+    )
     return out

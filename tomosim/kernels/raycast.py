@@ -22,6 +22,18 @@ TWO_PI = 2.0 * math.pi
 
 
 @kernel
+def turn_remainder(angle: float) -> float:
+    """``angle % TWO_PI`` as Python and numba compute it (``fmod``, then ``TWO_PI`` added
+    to a negative remainder), without ``fmod`` for the angles within a turn of zero,
+    where it changes nothing: the same number for every ``angle``."""
+    if 0.0 < angle < TWO_PI:
+        return angle
+    if -TWO_PI < angle < 0.0:
+        return angle + TWO_PI
+    return angle % TWO_PI
+
+
+@kernel
 def cast_scan(
     x: float,
     y: float,
@@ -80,8 +92,8 @@ def cast_scan(
         ey = y1 - y0
         # 1. Angular extent relative to beam 0: [low, high], high - low < pi.
         a0 = math.atan2(y0, x0)
-        start = (a0 - first_angle) % TWO_PI
-        delta = (math.atan2(y1, x1) - a0 + math.pi) % TWO_PI - math.pi
+        start = turn_remainder(a0 - first_angle)
+        delta = turn_remainder(math.atan2(y1, x1) - a0 + math.pi) - math.pi
         low = start + min(delta, 0.0)
         high = low + abs(delta)
         cross = x0 * ey - y0 * ex

@@ -3,7 +3,9 @@
 Each robot's counted truth cells are indexed by the lattice cell of its map
 frame their centres fall in (:mod:`tomosim.team.coverage`), as a sorted key
 array; a map cell observed for the first time reveals the truth cells under
-its key, found by binary search. The oracle is the evaluation rule of
+its key, found by binary search, or, for a team's step
+(:func:`reveal_team`), by looking the key up in a table of where each key
+starts (:func:`first_of_keys`). The oracle is the evaluation rule of
 :func:`tomosim.evaluation.known_in_world`.
 """
 
@@ -42,6 +44,49 @@ def truth_under(
             while i < keys.shape[0] and keys[i] == key:
                 total += 1
                 i += 1
+    return total
+
+
+def first_of_keys(keys: NDArray[np.int64]) -> NDArray[np.int32]:
+    """Per key ``0 <= key <= keys[-1]``, the index in the sorted, non-negative ``keys`` of
+    its first occurrence, -1 for a key that does not occur (empty for no keys)."""
+    if len(keys) == 0:
+        return np.zeros(0, dtype=np.int32)
+    table = np.full(int(keys[-1]) + 1, -1, dtype=np.int32)
+    firsts = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
+    table[keys[firsts]] = firsts
+    return table
+
+
+@kernel
+def truth_under_table(
+    cells: NDArray[np.int64],
+    origin_a: int,
+    origin_b: int,
+    width: int,
+    keys: NDArray[np.int64],
+    table: NDArray[np.int32],
+    starts: NDArray[np.int64],
+) -> int:
+    """:func:`truth_under` with the start of each key looked up in ``table``
+    (:func:`first_of_keys` of ``keys``) instead of searched for: the same ``starts``
+    and count."""
+    total = 0
+    for k in range(cells.shape[0]):
+        starts[k] = -1
+        a = cells[k, 0] - origin_a
+        if a < 0 or a >= width:
+            continue
+        key = (cells[k, 1] - origin_b) * width + a
+        if key < 0 or key >= table.shape[0]:
+            continue
+        i = np.int64(table[key])
+        if i < 0:
+            continue
+        starts[k] = i
+        while i < keys.shape[0] and keys[i] == key:
+            total += 1
+            i += 1
     return total
 
 
@@ -116,6 +161,8 @@ def reveal_team(
     widths: NDArray[np.int64],
     keys: NDArray[np.int64],
     members: NDArray[np.int64],
+    tables: NDArray[np.int32],
+    table_starts: NDArray[np.int64],
     known: NDArray[np.bool_],
     counts: NDArray[np.int64],
     team_known: NDArray[np.bool_],
@@ -135,6 +182,10 @@ def reveal_team(
     origins : (N, 2) int64 ndarray
     widths : (N,) int64 ndarray
     keys, members : (N, T) int64 ndarray
+    tables : int32 ndarray
+    table_starts : (N + 1,) int64 ndarray
+        Robot ``k``'s :func:`first_of_keys` of ``keys[k]`` is
+        ``tables[table_starts[k]:table_starts[k + 1]]``.
     known : (N, T) bool ndarray
         Per robot, the arguments of :func:`reveal_cells` (``known`` updated in place).
     counts : (N,) int64 ndarray
@@ -166,12 +217,13 @@ def reveal_team(
     under = np.empty(cells.shape[0], dtype=np.int64)
     total = 0
     for k in range(robots):
-        total += truth_under(
+        total += truth_under_table(
             cells[starts[k] : starts[k + 1]],
             origins[k, 0],
             origins[k, 1],
             widths[k],
             keys[k],
+            tables[table_starts[k] : table_starts[k + 1]],
             under[starts[k] : starts[k + 1]],
         )
     # 2. Per robot, those it knows for the first time and the team did not know.

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 from tomosim.frames import pose_matrix
-from tomosim.kernels.reveal import reveal_team
+from tomosim.kernels.reveal import first_of_keys, reveal_team
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
 
@@ -104,6 +104,8 @@ class TeamCoverage:
         "_members",
         "_origins",
         "_robot_counts",
+        "_table_starts",
+        "_tables",
         "_team_count",
         "_widths",
         "cell_area",
@@ -131,6 +133,7 @@ class TeamCoverage:
         self._widths = np.zeros(robots, dtype=np.int64)
         self._keys = np.zeros((robots, self.total), dtype=np.int64)
         self._members = np.zeros((robots, self.total), dtype=np.int64)
+        tables = []
         for k, start in enumerate(starts):
             local = _moved(np.linalg.inv(pose_matrix(start)), points)
             origin, width, keys, members = _lattice_keys(
@@ -140,6 +143,11 @@ class TeamCoverage:
             self._widths[k] = width
             self._keys[k] = keys
             self._members[k] = members
+            tables.append(first_of_keys(keys))
+        self._tables = np.concatenate(tables) if tables else np.zeros(0, dtype=np.int32)
+        self._table_starts = np.array(
+            [0, *itertools.accumulate(len(table) for table in tables)], dtype=np.int64
+        )
         self._known = np.zeros((robots, self.total), dtype=bool)
         self._robot_counts = np.zeros(robots, dtype=np.int64)
         self.team_known = np.zeros(self.total, dtype=bool)
@@ -154,6 +162,12 @@ class TeamCoverage:
     def robot_fraction(self, robot: int) -> float:
         """Fraction of the counted free cells robot ``robot`` knows."""
         return int(self._robot_counts[robot]) / self.total if self.total else 0.0
+
+    def robot_fractions(self) -> NDArray[np.float64]:
+        """``(N,)`` :meth:`robot_fraction` of every robot (the same numbers; a new array)."""
+        if not self.total:
+            return np.zeros(len(self._robot_counts))
+        return self._robot_counts / self.total
 
     def update(self, grids: Sequence[OccupancyGrid]) -> NDArray[np.float64]:
         """Take in the robots' whole grids; returns the square metres each discovered.
@@ -214,6 +228,8 @@ class TeamCoverage:
             self._widths,
             self._keys,
             self._members,
+            self._tables,
+            self._table_starts,
             self._known,
             self._robot_counts,
             self.team_known,

@@ -79,7 +79,7 @@ class TrackingEstimator:
         Source of the searches' seeds.
     """
 
-    __slots__ = ("_keep_params", "_pairs", "_rng", "_searches", "config")
+    __slots__ = ("_keep_params", "_pairs", "_rng", "_searches", "_walls", "config")
 
     def __init__(self, config: TeamConfig, *, rng: RngLike = None) -> None:
         self.config = config
@@ -87,6 +87,9 @@ class TrackingEstimator:
         self._searches: Searches = searches(worker=config.merge_worker)
         self._rng = as_generator(rng)
         self._pairs: dict[tuple[int, int], _PairState] = {}
+        # Per robot, the grid its walls were last counted on and the count: a round asks
+        # for each robot's grid once per pair it is in.
+        self._walls: dict[int, tuple[OccupancyGrid, int]] = {}
 
     @property
     def method(self) -> str:
@@ -124,7 +127,7 @@ class TrackingEstimator:
                 continue
             if tracked.accepted and (best is None or tracked.confidence > best.confidence):
                 best = tracked
-        walls = (_walls(grid_1), _walls(grid_2))
+        walls = (self._wall_count(first, grid_1), self._wall_count(second, grid_2))
         if best is not None:
             state.tracked = frame_matrix(best)
             state.rounds_tracked = 0 if found is not None else state.rounds_tracked + 1
@@ -159,6 +162,15 @@ class TrackingEstimator:
         else:
             reason = f"{why} ({last.reason or 'lost track'})"
         return replace(last, matrix=matrix, accepted=False, reason=reason)
+
+    def _wall_count(self, robot: int, grid: OccupancyGrid) -> int:
+        """The occupied cells of robot ``robot``'s ``grid``, counted once per grid."""
+        known = self._walls.get(robot)
+        if known is not None and known[0] is grid:
+            return known[1]
+        count = _walls(grid)
+        self._walls[robot] = (grid, count)
+        return count
 
     def _grown(self, state: _PairState, walls: tuple[int, int]) -> bool:
         """Whether either map gained walls enough since the pair's last search."""

@@ -222,3 +222,16 @@ class TeamSession:
         return self.shared.crop_cells(
             robot, own.cells, own.anchor, own.config.resolution, pose[:2], size=size, pool=pool
         )
+
+    def best_crops(self, out: NDArray[np.int8], *, pool: int) -> None:
+        """:meth:`best_crop` of every robot, robot ``k``'s into ``out[k]``: ``out`` is a
+        C-contiguous ``(N, size, size)`` int8 array."""
+        shared = self.shared
+        simulation = self.simulation
+        for robot, (own, odometry) in enumerate(
+            zip(simulation.maps, simulation.odometry, strict=True)
+        ):
+            x, y, _ = odometry.pose.tolist()
+            shared.crop_into(
+                out[robot], robot, own.cells, own.anchor, own.config.resolution, x, y, pool=pool
+            )

@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from merging.grid import UNKNOWN, OccupancyGrid
 from merging.validators import whole_number
 from merging.warp import warp_cells
-from tomosim.kernels.crop import crop_max_pool
+from tomosim.kernels.crop import crop_max_pool_into
 from tomosim.team.merger import TeamMerge
 
 ANCHOR_TOLERANCE = 1e-6
@@ -181,7 +181,15 @@ class SharedMaps:
         ``TeamConfig.share_interval``).
     """
 
-    __slots__ = ("_layers", "_links", "_received", "_refreshed", "count", "refresh_interval")
+    __slots__ = (
+        "_layers",
+        "_links",
+        "_next_due",
+        "_received",
+        "_refreshed",
+        "count",
+        "refresh_interval",
+    )
 
     def __init__(self, count: int, *, refresh_interval: int) -> None:
         self.count = whole_number(count, "count", minimum=1, unit="robots")
@@ -192,6 +200,7 @@ class SharedMaps:
         self._layers: list[tuple[NDArray[np.int8], tuple[int, int]] | None] = [None] * count
         self._refreshed: list[int | None] = [None] * count
         self._received: list[dict[int, OccupancyGrid]] = [{} for _ in range(count)]
+        self._next_due = math.inf  # the first step a layer is due at (due() asks each step)
 
     def link(self, merge: TeamMerge | None, *, reach: ArrayLike | None = None) -> None:
         """Adopt the links of a merge round (None: every robot alone); layers are rebuilt
@@ -230,6 +239,7 @@ class SharedMaps:
         self._layers[robot] = None
         self._refreshed[robot] = None
         self._received[robot] = {k: g for k, g in self._received[robot].items() if k in links}
+        self._update_next_due()
 
     def teammates(self, robot: int) -> tuple[int, ...]:
         """Robots whose maps robot ``robot`` sees in its best map."""
@@ -242,9 +252,18 @@ class SharedMaps:
 
     def due(self, step: int) -> bool:
         """Whether :meth:`refresh` at ``step`` would rebuild some robot's layer."""
-        return any(
-            links and (last is None or step - last >= self.refresh_interval)
-            for links, last in zip(self._links, self._refreshed, strict=True)
+        return step >= self._next_due
+
+    def _update_next_due(self) -> None:
+        """Keep the first step at which a linked robot's layer is due (``-inf`` for one
+        never built, ``inf`` with no links)."""
+        self._next_due = min(
+            (
+                -math.inf if last is None else last + self.refresh_interval
+                for links, last in zip(self._links, self._refreshed, strict=True)
+                if links
+            ),
+            default=math.inf,
         )
 
     def refresh(
@@ -268,6 +287,7 @@ class SharedMaps:
                 [received[k] for k in others], [links[k] for k in others], grids[robot].resolution
             )
             self._refreshed[robot] = step
+        self._update_next_due()
 
     def best_grid(self, robot: int, grids: Sequence[OccupancyGrid]) -> OccupancyGrid:
         """Robot ``robot``'s best map as a grid in its own frame (yaw 0, on its lattice)."""
@@ -327,19 +347,38 @@ class SharedMaps:
         """:meth:`crop` of the robot's own cells given as an array on its lattice, its
         cell ``(0, 0)`` at lattice ``anchor`` (no grid needed: a live map's cells will do)."""
         x, y = (float(v) for v in np.asarray(centre, dtype=float)[:2])
+        out = np.empty((size, size), dtype=np.int8)
+        self.crop_into(out, robot, cells, anchor, resolution, x, y, pool=pool)
+        return out
+
+    def crop_into(
+        self,
+        out: NDArray[np.int8],
+        robot: int,
+        cells: NDArray[np.int8],
+        anchor: tuple[int, int],
+        resolution: float,
+        x: float,
+        y: float,
+        *,
+        pool: int,
+    ) -> None:
+        """:meth:`crop_cells` around ``(x, y)`` (metres, floats) written into ``out``, a
+        C-contiguous ``(size, size)`` int8 array (a row of the team's observations)."""
+        size = out.shape[0]
         fine = size * pool
-        start = (math.floor(x / resolution) - fine // 2, math.floor(y / resolution) - fine // 2)
         layer = self._layers[robot]
         mates, mates_anchor = layer if layer is not None else (NO_LAYER, (0, 0))
-        return crop_max_pool(
+        crop_max_pool_into(
+            out,
             cells,
             anchor[0],
             anchor[1],
             mates,
             mates_anchor[0],
             mates_anchor[1],
-            start[0],
-            start[1],
+            math.floor(x / resolution) - fine // 2,
+            math.floor(y / resolution) - fine // 2,
             size,
             pool,
         )

@@ -41,6 +41,22 @@ def test_tracker_sums_each_robots_true_travel() -> None:
     assert figures.team_coverage == session.coverage.fraction
     own = [session.coverage.robot_fraction(k) for k in range(2)]
     assert figures.overlap_rate == pytest.approx(sum(own) / figures.team_coverage - 1.0)
+    assert [curve[-1] for curve in tracker.robot_curves] == own
+
+
+def test_tracker_advance_keeps_what_update_gives() -> None:
+    world = generate_floorplan(4, width=15.0, height=10.0)
+    sessions = [TeamSession(world, robots=3, config=TeamConfig(merge=False), rng=5) for _ in "ab"]
+    updated, advanced = (ExplorationTracker(session) for session in sessions)
+    for step in range(12):
+        for session in sessions:
+            session.step(np.array([[0.6, 0.2], [0.4, -0.3], [0.9, math.cos(step)]]))
+        figures = updated.update(sessions[0])
+        advanced.advance(sessions[1])
+        assert advanced.last == figures  # built when asked, from the same numbers
+    assert advanced.team_curve == updated.team_curve
+    assert advanced.robot_curves == updated.robot_curves
+    assert advanced.path_lengths == updated.path_lengths == figures.path_lengths
 
 
 def pair(

@@ -11,12 +11,16 @@ from merging.grid import UNKNOWN
 from tomosim.kernels.crop import crop_max_pool
 from tomosim.kernels.logodds import (
     SATURATED,
+    beam_cells,
+    beam_cells_narrow,
     beam_ends,
     code_thresholds,
     integrate_scan,
     ros_code,
+    saturated_run,
 )
-from tomosim.kernels.raycast import cast_scan
+from tomosim.kernels.raycast import TWO_PI, cast_scan, turn_remainder
+from tomosim.kernels.reveal import first_of_keys, truth_under, truth_under_table
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.mapping import (
     CODE_THRESHOLDS,
@@ -270,6 +274,31 @@ def test_crop_kernel_matches_numpy_windows(with_layer: bool, pool: int) -> None:
         np.testing.assert_array_equal(ours, expected)
 
 
+def test_beam_cells_in_32_bits_are_the_64_bit_ones() -> None:
+    rng = np.random.default_rng(12)
+    cols = 517
+    for _ in range(200):
+        samples = int(rng.integers(1, 300))
+        step = rng.uniform(-1, 1, 2).astype(np.float32)
+        offset = rng.uniform(300, 320, 2).astype(np.float32)
+        wide, narrow = np.zeros(samples, np.int64), np.zeros(samples, np.int32)
+        beam_cells(step[0], step[1], offset[0], offset[1], samples, cols, wide)
+        beam_cells_narrow(step[0], step[1], offset[0], offset[1], samples, np.int32(cols), narrow)
+        np.testing.assert_array_equal(narrow, wide)
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_saturated_run_finds_the_first_cell_not_saturated(dtype: type) -> None:
+    rng = np.random.default_rng(13)
+    stamp = np.where(rng.random(5000) < 0.97, SATURATED | 5, 5).astype(np.uint8)
+    for samples in [*range(0, 20), 50, 123]:  # runs ending in and after a chunk of 8
+        for _ in range(20):
+            beam = rng.integers(0, len(stamp), samples).astype(dtype)
+            not_saturated = np.flatnonzero(stamp[beam] < SATURATED)
+            expected = int(not_saturated[0]) if len(not_saturated) else samples
+            assert saturated_run(stamp, beam, samples) == expected
+
+
 def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None:
     config = MappingConfig()
     shape = (90, 120)
@@ -283,3 +312,25 @@ def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None
             SAMPLE_STEP_CELLS, HIT_DEPTH_CELLS, CODE_THRESHOLDS, np.zeros(10, np.int64),
         )  # fmt: skip
     assert not np.any(logodds)  # refused before it changed anything
+
+
+def test_truth_under_looks_keys_up_as_the_binary_search_finds_them() -> None:
+    rng = np.random.default_rng(14)
+    keys = np.sort(rng.integers(0, 400, 300))  # repeated keys, and gaps
+    table = first_of_keys(keys)
+    assert table.shape == (keys[-1] + 1,)
+    cells = rng.integers(-5, 30, (500, 2))  # some off the keys' lattice on either side
+    searched, looked_up = np.empty(500, np.int64), np.empty(500, np.int64)
+    total = truth_under(cells, 2, 3, 20, keys, searched)
+    assert truth_under_table(cells, 2, 3, 20, keys, table, looked_up) == total > 0
+    np.testing.assert_array_equal(looked_up, searched)
+    assert np.count_nonzero(searched >= 0) > 50  # many cells found, many not
+    assert first_of_keys(np.zeros(0, np.int64)).shape == (0,)
+
+
+def test_turn_remainder_is_the_modulo_bit_for_bit() -> None:
+    rng = np.random.default_rng(15)
+    edges = [0.0, -0.0, TWO_PI, -TWO_PI, math.pi, -math.pi, 1e-300, -1e-300]
+    edges += [float(np.nextafter(e, d)) for e in (TWO_PI, -TWO_PI, 0.0) for d in (-9, 9)]
+    for angle in [*edges, *rng.uniform(-20, 20, 2000), *rng.uniform(-1e-9, 1e-9, 100)]:
+        assert np.float64(turn_remainder(angle)).tobytes() == np.float64(angle % TWO_PI).tobytes()

@@ -217,6 +217,23 @@ def test_best_map_keeps_own_cells_and_fills_the_rest_from_teammates() -> None:
     assert shared.best_grid(1, [own, mate]) is mate  # robot 1 links to nobody
 
 
+def test_shared_maps_are_due_when_a_linked_robots_layer_is() -> None:
+    rng = np.random.default_rng(6)
+    grids = [lattice_grid(rng, (20, 20), (0, 0)) for _ in range(3)]
+    shared = SharedMaps(3, refresh_interval=10)
+    assert not shared.due(0) and not shared.due(10**6)  # nobody linked
+    shared.set_links(0, {1: np.eye(3)})
+    assert shared.due(0)  # a new link's layer is built at the next refresh
+    shared.refresh(4, grids)
+    assert not shared.due(13) and shared.due(14)
+    shared.set_links(2, {1: np.eye(3)})
+    assert shared.due(5)
+    shared.refresh(7, grids)  # robot 2's layer now; robot 0's is not due before 14
+    assert not shared.due(13) and shared.due(14)
+    shared.set_links(0, {})
+    assert not shared.due(16) and shared.due(17)
+
+
 def test_crop_is_centred_and_pools_by_maximum() -> None:
     data = np.full((40, 40), UNKNOWN, np.int8)
     data[20, 20] = 0  # the robot's cell, free
@@ -262,6 +279,7 @@ def test_team_coverage_matches_the_evaluation_rule(world: World, incremental: bo
         assert cover.robot_fraction(k) == pytest.approx(
             coverage(world, grids[k], sim.start_poses[k]), abs=EXACT
         )
+    assert cover.robot_fractions().tolist() == [cover.robot_fraction(k) for k in range(2)]
     union = known_in_world(world, grids[0], sim.start_poses[0]) | known_in_world(
         world, grids[1], sim.start_poses[1]
     )
@@ -286,6 +304,23 @@ def test_session_merges_on_schedule_and_repeats_with_its_seed(world: World) -> N
     quiet = TeamSession(world, robots=2, config=TeamConfig(merge=False), rng=4)
     assert all(quiet.step([[0.5, 0.0], [0.5, 0.0]]) is None for _ in range(12))
     assert quiet.merger is None and quiet.best_map(0) is quiet.grids()[0]
+
+
+def test_best_crops_are_each_robots_best_crop(world: World) -> None:
+    # Oracle merges link the maps at the first round, so the crops take teammates' cells.
+    session = TeamSession(
+        world, robots=3, config=TeamConfig(method=ORACLE, merge_interval=5), rng=2
+    )
+    for step in range(12):
+        session.step([[0.8, math.sin(step)], [0.6, 0.5], [0.7, -0.4]])
+    assert all(session.linked(k) for k in range(3))
+    crops = np.full((3, 16, 16), 7, np.int8)
+    session.best_crops(crops, pool=2)
+    for k in range(3):
+        np.testing.assert_array_equal(crops[k], session.best_crop(k, size=16, pool=2))
+    wide = np.empty((3, 8, 8), np.int8)
+    session.best_crops(wide, pool=3)
+    np.testing.assert_array_equal(wide[1], session.best_crop(1, size=8, pool=3))
 
 
 def test_config_rejects_bad_values() -> None:
