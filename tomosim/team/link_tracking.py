@@ -21,17 +21,28 @@ for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
    track have locked onto a wrong fit);
 4. otherwise returns the last search's result, not accepted, with the reason.
 
+A pair of which a robot is not tracked to any teammate yet (no pair of its
+is tracked) cannot wait a round: its map is shared with nobody, and a robot
+unlinked explores as if alone. With ``search_unlinked_at_once``, such pairs
+are searched in the round itself, before any pair is estimated
+(:meth:`TrackingEstimator.prepare`, called by the merger at the start of a
+round): the worker process and this one share the searches, and each pair
+collects its own at step 1 of the same round. The maps are small then, and
+the searches cheap.
+
 The settings named are those of :class:`~tomosim.team.config.TrackingParams`,
 the team's ``tracker``.
 
-Searches are collected at a fixed later step (the next round), so a run is
-the same whether they ran in the worker process or inline. Compared with
-searching every pair every round, an accepted search takes effect one round
-later.
+Searches are collected at a fixed step (the next round, or the same round
+for a robot not tracked yet), so a run is the same whether they ran in the
+worker process or inline. Compared with searching every pair every round,
+an accepted search of two robots both tracked to teammates takes effect one
+round later.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
 
@@ -49,6 +60,9 @@ from tomosim.team.worker import Searches, searches
 SEED_BOUND = 2**31
 """Seeds given to searches are drawn below this."""
 
+Talks = Callable[[int, int], bool]
+"""``talks(i, j)``: whether robots ``i`` and ``j`` can exchange maps this round."""
+
 
 @dataclass(slots=True)
 class _PairState:
@@ -59,6 +73,8 @@ class _PairState:
     walls_at_search: tuple[int, int] | None = None
     last: MergeResult | None = None
     pending: Future[MergeResult] | None = None
+    search_due: bool = False
+    """A search is wanted and left to the start of the next round (:meth:`prepare`)."""
 
 
 def _walls(grid: OccupancyGrid) -> int:
@@ -79,7 +95,7 @@ class TrackingEstimator:
         Source of the searches' seeds.
     """
 
-    __slots__ = ("_keep_params", "_pairs", "_rng", "_searches", "config")
+    __slots__ = ("_keep_params", "_pairs", "_rng", "_searches", "_urgent", "config")
 
     def __init__(self, config: TeamConfig, *, rng: RngLike = None) -> None:
         self.config = config
@@ -87,6 +103,45 @@ class TrackingEstimator:
         self._searches: Searches = searches(worker=config.merge_worker)
         self._rng = as_generator(rng)
         self._pairs: dict[tuple[int, int], _PairState] = {}
+        self._urgent: frozenset[tuple[int, int]] = frozenset()
+
+    def tracked_robots(self) -> frozenset[int]:
+        """Robots with at least one tracked pair (whose maps a track links to a teammate's)."""
+        tracked = (pair for pair, state in self._pairs.items() if state.tracked is not None)
+        return frozenset(k for pair in tracked for k in pair)
+
+    def prepare(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> None:
+        """Start of a round: search at once the pairs of robots not tracked yet (module
+        docstring), when ``search_unlinked_at_once`` is set.
+
+        A pair is searched now when either robot has no tracked pair, the pair
+        is not tracked, no search of it is pending, and it is due a search
+        (its maps gained walls since its last one, or its track was lost).
+        Each pair collects its search when the round estimates it (step 1).
+
+        Parameters
+        ----------
+        grids : sequence of OccupancyGrid
+            Every robot's grid of this round, in robot order.
+        talks : callable, optional
+            ``talks(i, j)``: whether the pair can exchange maps now (default:
+            every pair can); pairs that cannot are not searched.
+        """
+        urgent = set()
+        if self.config.tracker.search_unlinked_at_once:
+            linked = self.tracked_robots()
+            for i in range(len(grids)):
+                for j in range(i + 1, len(grids)):
+                    if (i in linked and j in linked) or (talks is not None and not talks(i, j)):
+                        continue
+                    urgent.add((i, j))
+                    state = self._pairs.setdefault((i, j), _PairState())
+                    if state.tracked is not None or state.pending is not None:
+                        continue
+                    walls = (_walls(grids[i]), _walls(grids[j]))
+                    if state.search_due or self._grown(state, walls):
+                        self._submit(state, grids[i], grids[j], walls)
+        self._urgent = frozenset(urgent)
 
     @property
     def method(self) -> str:
@@ -104,7 +159,7 @@ class TrackingEstimator:
         """This round's estimate of the pair ``(first, second)`` (steps 1-4)."""
         state = self._pairs.setdefault((first, second), _PairState())
         found = None
-        if state.pending is not None:  # 1. last round's search
+        if state.pending is not None:  # 1. the search of the last round or of this one's start
             # The pairs after this one collect theirs at this round too: while the
             # worker finishes one, this process may run the others it has not started.
             later = [s.pending for k, s in sorted(self._pairs.items()) if k > (first, second)]
@@ -134,7 +189,13 @@ class TrackingEstimator:
         lost = state.tracked is not None
         state.tracked = None
         state.rounds_tracked = 0
-        if lost or self._grown(state, walls):  # 3. a lost track, or new walls: search again
+        due = lost or state.search_due or self._grown(state, walls)
+        if due and (first, second) in self._urgent:
+            # 3. a robot of the pair is not tracked yet: search at the next round's start,
+            # on that round's maps, and use the result at once
+            state.search_due = True
+            why = "searching globally at the start of the next round"
+        elif due:  # 3. a lost track, or new walls: search again
             self._submit(state, grid_1, grid_2, walls)
             why = "searching globally; the result is used at the next round"
         elif loose is None and not (state.last is not None and state.last.accepted):
@@ -183,3 +244,4 @@ class TrackingEstimator:
         state.pending = self._searches.submit(grid_1, grid_2, method=self.method, seed=seed)
         state.walls_at_search = walls
         state.rounds_tracked = 0
+        state.search_due = False

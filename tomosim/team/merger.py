@@ -2,6 +2,9 @@
 
 A merge round
 
+0. lets the pair estimator prepare the round (``before_round``: the tracker
+   starts the searches the round itself needs,
+   :meth:`~tomosim.team.link_tracking.TrackingEstimator.prepare`);
 1. estimates the transform of every pair of the robots' current grids, with
    :func:`merging.estimate_transform` or with the :data:`PairEstimator` given;
 2. counts an estimate as *confirmed* when the merger accepted it in
@@ -16,6 +19,12 @@ A merge round
    the team's ``linking`` settings): a consistent spanning forest, each
    robot's frame placed in its group's root robot's frame;
 4. fuses the main group (:func:`merging.linking.forest.fuse_group`).
+
+Rounds run every ``merge_interval`` steps, and every
+``unlinked_merge_interval`` steps while a robot's map is linked to no
+teammate's (:meth:`TeamMerger.due`): a robot alone explores as if it had no
+team, so the first link of each robot is worth the extra rounds, which cost
+computing time, not simulated time.
 
 A round sees the grids alone, never the truth: scoring it against the true
 start poses is :func:`tomosim.team.quality.score_round`'s job.
@@ -47,6 +56,9 @@ PairEstimator = Callable[[int, int, OccupancyGrid, OccupancyGrid], MergeResult]
 """``estimator(i, j, grid_i, grid_j) -> MergeResult`` for robots ``i < j``: its matrix
 takes grid ``j``'s cells to grid ``i``'s and its ``matrix_metres`` frame ``j`` to
 frame ``i``."""
+RoundStart = Callable[[Sequence[OccupancyGrid]], None]
+"""``before_round(grids)``: called with every robot's grid at the start of a round, before
+any pair is estimated."""
 
 
 def robot_name(index: int) -> str:
@@ -184,17 +196,19 @@ class TeamMerger:
     config : TeamConfig
         The team's settings; the merger reads ``method`` (a method of
         :func:`merging.available_methods`, or, with ``estimator``, the name it
-        is reported under), ``merge_interval`` (rounds run after steps
-        ``merge_interval``, ``2 * merge_interval``, ...), ``confirmations``,
-        ``confirm_rotation_deg``, ``confirm_translation_m`` and ``linking``.
+        is reported under), ``merge_interval`` and ``unlinked_merge_interval``
+        (:meth:`due`), ``confirmations``, ``confirm_rotation_deg``,
+        ``confirm_translation_m`` and ``linking``.
     rng : numpy.random.Generator, int or None
         Source of the merging methods' randomness; one stream serves all rounds.
     estimator : PairEstimator, optional
         Estimates a pair instead of ``merging.estimate_transform(grid_i, grid_j,
         method=config.method)``.
+    before_round : RoundStart, optional
+        Called with the grids at the start of every round (step 0).
     """
 
-    __slots__ = ("_estimator", "_rng", "_streaks", "config")
+    __slots__ = ("_all_linked", "_before_round", "_estimator", "_rng", "_streaks", "config")
 
     def __init__(
         self,
@@ -202,13 +216,16 @@ class TeamMerger:
         *,
         rng: RngLike = None,
         estimator: PairEstimator | None = None,
+        before_round: RoundStart | None = None,
     ) -> None:
         if estimator is None:
             check_method(config.method)
         self.config = config
         self._rng = as_generator(rng)
         self._estimator = estimator
+        self._before_round = before_round
         self._streaks: dict[tuple[int, int], tuple[int, NDArray[np.float64]]] = {}
+        self._all_linked = False
 
     @property
     def method(self) -> str:
@@ -217,11 +234,15 @@ class TeamMerger:
 
     @property
     def interval(self) -> int:
-        """Steps between merge rounds."""
-        return self.config.merge_interval
+        """Steps between merge rounds now: ``merge_interval`` once the last round linked every
+        robot's map to a teammate's, else the shorter of it and ``unlinked_merge_interval``
+        (from the start, before any round)."""
+        if self._all_linked:
+            return self.config.merge_interval
+        return min(self.config.merge_interval, self.config.unlinked_merge_interval)
 
     def due(self, step: int) -> bool:
-        """Whether a round runs after step ``step``."""
+        """Whether a round runs after step ``step``: a multiple of :attr:`interval`."""
         return step > 0 and step % self.interval == 0
 
     def estimate(self, i: int, j: int, grids: Sequence[OccupancyGrid]) -> MergeResult:
@@ -264,6 +285,8 @@ class TeamMerger:
             raise TypeError("grids must be OccupancyGrids, one per robot in robot order")
         clock = time.perf_counter()
         count = len(grids)
+        if self._before_round is not None:
+            self._before_round(grids)
         raw: dict[tuple[int, int], MergeResult] = {}
         confirmed: dict[tuple[int, int], MergeResult] = {}
         for i in range(count):
@@ -277,6 +300,7 @@ class TeamMerger:
                     result = replace(result, accepted=False, reason=why)
                 confirmed[(i, j)] = result
         linking = link_maps(grids, confirmed, params=self.config.linking)
+        self._all_linked = count < 2 or all(linking.linked(k) for k in range(count))
         merged = fuse_group(grids, linking, linking.main).grid
         assert merged is not None  # OccupancyGrid inputs give a georeferenced fused map
         pairs = tuple(
