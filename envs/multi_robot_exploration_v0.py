@@ -3,9 +3,11 @@
 Lidar-equipped differential-drive robots (pymunk physics, 360-beam lidar,
 drifting odometry) start at random free poses with random headings, unknown
 to each other, and each builds an occupancy grid in its own start frame.
-Every ``team.merge_interval`` steps (50 by default) all grids are merged
-(tomographic method by default); once a robot's map is linked to teammates'
-by confirmed merges, its observation shows the team's map in its own frame.
+Every ``team.merge_interval`` steps (50 by default; every
+``team.unlinked_merge_interval``, 10, while the robots' maps are not all
+linked into one) all grids are merged (tomographic method by default); once a
+robot's map is linked to teammates' by confirmed merges, its observation
+shows the team's map in its own frame.
 
 =====================  =============================================================
 Import                 ``from envs import multi_robot_exploration_v0``
@@ -122,8 +124,10 @@ argument                meaning (default)
 ``team``                a ``tomosim.team.TeamConfig``: every setting of the team,
                         among them ``merge`` (True), ``method``
                         ("tomographic"; "oracle": the true start poses),
-                        ``merge_interval`` (50 steps), ``confirmations`` (2),
-                        ``share_interval`` (10 steps), ``tracking`` (True),
+                        ``merge_interval`` (50 steps),
+                        ``unlinked_merge_interval`` (10 steps),
+                        ``confirmations`` (2), ``share_interval`` (10
+                        steps), ``tracking`` (True),
                         ``comms`` (unlimited range) and ``simulation`` (robots,
                         lidar, odometry, mapping); default ``TeamConfig()``
 ``coverage_target``     team coverage that terminates the episode (0.9)
@@ -171,7 +175,13 @@ Version history
   last step and its exploration figures (``steps_to_target`` to
   ``pairs_confirmed``), and the ``team`` argument, which took in the arguments
   ``merge``, ``merge_interval``, ``method`` and ``simulation`` (with the same
-  defaults) and gave the environment the team's other settings.
+  defaults) and gave the environment the team's other settings. The team's
+  merge rounds now come every 10 steps while the robots' maps are not all
+  linked into one, and pairs not linked yet are searched within the round, so that
+  a seed's ``map`` observations show teammates' maps sooner than before;
+  ``TeamConfig(unlinked_merge_interval=50,
+  tracker=TrackingParams(search_unlinked_at_once=False))`` gives the earlier
+  schedule.
 """
 
 from __future__ import annotations

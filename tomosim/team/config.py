@@ -76,13 +76,13 @@ class TrackingParams:
         352 study episodes without a false match.
     search_unlinked_at_once : bool
         Search a pair in the round itself, and use the result at once, while
-        either robot of it has no tracked pair
+        no chain of tracked pairs links its two maps
         (:meth:`~tomosim.team.link_tracking.TrackingEstimator.prepare`);
-        otherwise a search's result is used at the pair's next round. A robot
-        linked to nobody explores as if alone, so its first link is worth a
-        round; its map is small then, and the search cheap. The worker
-        process and the session's share these searches, so the session waits
-        for them.
+        otherwise a search's result is used at the pair's next round. Robots
+        whose maps are not linked re-explore what the other has seen, so the
+        link is worth a round; pairs linked through teammates already wait.
+        The worker process and the session's share these searches, so the
+        session waits for them.
     """
 
     search_every_rounds: int = 4
@@ -124,13 +124,14 @@ class TeamConfig:
         of the team; between two rounds each robot sees a few metres of new
         walls. Every benchmark and study of the project ran with 50.
     unlinked_merge_interval : int
-        Steps between merge rounds while some robot's map is linked to no
-        teammate's (from the start, and whenever the last round left a robot
-        alone; the shorter of this and ``merge_interval`` is used): 10, 1 s.
-        A robot linked to nobody explores as if alone and re-explores what
-        teammates have seen, so its first link is worth having as soon as the
-        maps allow; rounds cost computing time, not simulated time, and a
-        robot not linked yet has a small map whose searches are cheap.
+        Steps between merge rounds while the robots' maps are not all linked
+        into one (from the start, and whenever the last round left them in
+        more than one group; the shorter of this and ``merge_interval`` is
+        used): 10, 1 s. Robots whose maps are not linked explore without each
+        other's maps and re-explore what the others have seen, so a link is
+        worth having as soon as the maps allow it; rounds cost computing
+        time, not simulated time, and a global search is run only when a
+        pair's maps have gained walls since its last one (``tracker``).
         Setting it to ``merge_interval`` keeps one interval throughout.
     confirmations : int
         Consecutive rounds that must accept consistent estimates of a pair

@@ -21,10 +21,10 @@ for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
    track have locked onto a wrong fit);
 4. otherwise returns the last search's result, not accepted, with the reason.
 
-A pair of which a robot is not tracked to any teammate yet (no pair of its
-is tracked) cannot wait a round: its map is shared with nobody, and a robot
-unlinked explores as if alone. With ``search_unlinked_at_once``, such pairs
-are searched in the round itself, before any pair is estimated
+A pair whose maps no track links yet, directly or through teammates,
+cannot wait a round: the robots explore without each other's maps, and
+re-explore what the other has seen. With ``search_unlinked_at_once``, such
+pairs are searched in the round itself, before any pair is estimated
 (:meth:`TrackingEstimator.prepare`, called by the merger at the start of a
 round): the worker process and this one share the searches, and each pair
 collects its own at step 1 of the same round. The maps are small then, and
@@ -34,10 +34,10 @@ The settings named are those of :class:`~tomosim.team.config.TrackingParams`,
 the team's ``tracker``.
 
 Searches are collected at a fixed step (the next round, or the same round
-for a robot not tracked yet), so a run is the same whether they ran in the
+for maps not linked yet), so a run is the same whether they ran in the
 worker process or inline. Compared with searching every pair every round,
-an accepted search of two robots both tracked to teammates takes effect one
-round later.
+an accepted search of two maps linked already through teammates takes
+effect one round later.
 """
 
 from __future__ import annotations
@@ -105,19 +105,30 @@ class TrackingEstimator:
         self._pairs: dict[tuple[int, int], _PairState] = {}
         self._urgent: frozenset[tuple[int, int]] = frozenset()
 
-    def tracked_robots(self) -> frozenset[int]:
-        """Robots with at least one tracked pair (whose maps a track links to a teammate's)."""
-        tracked = (pair for pair, state in self._pairs.items() if state.tracked is not None)
-        return frozenset(k for pair in tracked for k in pair)
+    def tracked_groups(self, count: int) -> tuple[int, ...]:
+        """Per robot of ``count``, the lowest robot its map is linked to by tracked pairs,
+        directly or through teammates (its own number when no track links it)."""
+        group = list(range(count))
+
+        def root(k: int) -> int:
+            while group[k] != k:
+                k = group[k]
+            return k
+
+        for (i, j), state in sorted(self._pairs.items()):
+            if state.tracked is not None and max(i, j) < count:
+                low, high = sorted((root(i), root(j)))
+                group[high] = low
+        return tuple(root(k) for k in range(count))
 
     def prepare(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> None:
-        """Start of a round: search at once the pairs of robots not tracked yet (module
+        """Start of a round: search at once the pairs whose maps no track links yet (module
         docstring), when ``search_unlinked_at_once`` is set.
 
-        A pair is searched now when either robot has no tracked pair, the pair
-        is not tracked, no search of it is pending, and it is due a search
-        (its maps gained walls since its last one, or its track was lost).
-        Each pair collects its search when the round estimates it (step 1).
+        A pair is searched now when no chain of tracked pairs links its two
+        robots' maps, no search of it is pending, and it is due a search (its
+        maps gained walls since its last one, or its track was lost). Each
+        pair collects its search when the round estimates it (step 1).
 
         Parameters
         ----------
@@ -129,10 +140,10 @@ class TrackingEstimator:
         """
         urgent = set()
         if self.config.tracker.search_unlinked_at_once:
-            linked = self.tracked_robots()
+            groups = self.tracked_groups(len(grids))
             for i in range(len(grids)):
                 for j in range(i + 1, len(grids)):
-                    if (i in linked and j in linked) or (talks is not None and not talks(i, j)):
+                    if groups[i] == groups[j] or (talks is not None and not talks(i, j)):
                         continue
                     urgent.add((i, j))
                     state = self._pairs.setdefault((i, j), _PairState())
@@ -191,7 +202,7 @@ class TrackingEstimator:
         state.rounds_tracked = 0
         due = lost or state.search_due or self._grown(state, walls)
         if due and (first, second) in self._urgent:
-            # 3. a robot of the pair is not tracked yet: search at the next round's start,
+            # 3. no track links the pair's maps yet: search at the next round's start,
             # on that round's maps, and use the result at once
             state.search_due = True
             why = "searching globally at the start of the next round"

@@ -21,10 +21,11 @@ A merge round
 4. fuses the main group (:func:`merging.linking.forest.fuse_group`).
 
 Rounds run every ``merge_interval`` steps, and every
-``unlinked_merge_interval`` steps while a robot's map is linked to no
-teammate's (:meth:`TeamMerger.due`): a robot alone explores as if it had no
-team, so the first link of each robot is worth the extra rounds, which cost
-computing time, not simulated time.
+``unlinked_merge_interval`` steps while the robots' maps are not all linked
+into one (:meth:`TeamMerger.due`): robots whose maps are not linked explore
+without each other's maps and re-explore what the others have seen, so
+each link is worth the extra rounds, which cost computing time, not
+simulated time.
 
 A round sees the grids alone, never the truth: scoring it against the true
 start poses is :func:`tomosim.team.quality.score_round`'s job.
@@ -234,8 +235,8 @@ class TeamMerger:
 
     @property
     def interval(self) -> int:
-        """Steps between merge rounds now: ``merge_interval`` once the last round linked every
-        robot's map to a teammate's, else the shorter of it and ``unlinked_merge_interval``
+        """Steps between merge rounds now: ``merge_interval`` once the last round linked all
+        robots' maps into one, else the shorter of it and ``unlinked_merge_interval``
         (from the start, before any round)."""
         if self._all_linked:
             return self.config.merge_interval
@@ -300,7 +301,7 @@ class TeamMerger:
                     result = replace(result, accepted=False, reason=why)
                 confirmed[(i, j)] = result
         linking = link_maps(grids, confirmed, params=self.config.linking)
-        self._all_linked = count < 2 or all(linking.linked(k) for k in range(count))
+        self._all_linked = len(set(linking.roots)) == 1
         merged = fuse_group(grids, linking, linking.main).grid
         assert merged is not None  # OccupancyGrid inputs give a georeferenced fused map
         pairs = tuple(

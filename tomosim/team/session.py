@@ -8,8 +8,8 @@ runner drive. One :meth:`TeamSession.step`
    team knows for the first time (:mod:`tomosim.team.coverage`);
 3. finds who can talk to whom (:mod:`tomosim.team.comms`; everyone, without
    a communication range);
-4. every ``merge_interval`` steps (``unlinked_merge_interval`` while a
-   robot's map is linked to no teammate's), when merging is on, runs a merge
+4. every ``merge_interval`` steps (``unlinked_merge_interval`` while the
+   robots' maps are not all linked into one), when merging is on, runs a merge
    round (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone, over the
    pairs that can talk), adopts its links, and scores it against the truth
    (:func:`~tomosim.team.quality.score_round`);

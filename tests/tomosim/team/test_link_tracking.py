@@ -322,7 +322,7 @@ def counting_search(monkeypatch: pytest.MonkeyPatch, quality: float = 0.9) -> li
 
 
 @pytest.mark.parametrize("at_once", [True, False])
-def test_a_robot_tracked_to_nobody_has_its_pairs_searched_in_the_round_itself(
+def test_a_pair_no_track_links_is_searched_in_the_round_itself(
     monkeypatch: pytest.MonkeyPatch, at_once: bool
 ) -> None:
     from merging.grid import OccupancyGrid
@@ -340,10 +340,10 @@ def test_a_robot_tracked_to_nobody_has_its_pairs_searched_in_the_round_itself(
     assert len(seeds) == 1
     estimator.prepare([grid, grid])
     assert estimator(0, 1, grid, grid).accepted
-    assert estimator.tracked_robots() == {0, 1}
+    assert estimator.tracked_groups(2) == (0, 0)
 
 
-def test_pairs_of_robots_both_tracked_wait_for_the_next_round(
+def test_pairs_linked_through_tracks_wait_for_the_next_round(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     from merging.grid import OccupancyGrid
@@ -363,3 +363,11 @@ def test_pairs_of_robots_both_tracked_wait_for_the_next_round(
     fresh = tracking_module.TrackingEstimator(INLINE, rng=0)
     fresh.prepare(grids, lambda i, j: 2 not in (i, j))
     assert len(seeds) == 4
+    # Two groups, robots 0-1 and 2-3: only the four pairs across them are searched now.
+    four = tracking_module.TrackingEstimator(INLINE, rng=0)
+    four.prepare([small] * 4, lambda i, j: {i, j} in ({0, 1}, {2, 3}))
+    assert four(0, 1, small, small).accepted and four(2, 3, small, small).accepted
+    assert four.tracked_groups(4) == (0, 0, 2, 2) and len(seeds) == 6
+    four.prepare([small] * 4)
+    assert len(seeds) == 10
+    assert four(1, 2, small, small).accepted and four.tracked_groups(4) == (0, 0, 0, 0)

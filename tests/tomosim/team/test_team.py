@@ -169,7 +169,7 @@ def test_a_pair_estimator_replaces_the_merging_method(world: World) -> None:
         np.testing.assert_allclose(relative, true_relative(starts[0], starts[k]), atol=EXACT)
 
 
-def test_rounds_come_sooner_while_a_robot_is_linked_to_nobody(world: World) -> None:
+def test_rounds_come_sooner_while_the_maps_are_not_all_linked_into_one(world: World) -> None:
     starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2], [6.0, 5.0, 1.0]])
     grids = [robot_view(world, start) for start in starts]
     refused = {"pairs": {(0, 1), (0, 2), (1, 2)}}
