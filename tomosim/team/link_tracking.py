@@ -121,6 +121,32 @@ class TrackingEstimator:
                 group[high] = low
         return tuple(root(k) for k in range(count))
 
+    def _unlinked(self, count: int, talks: Talks | None) -> list[tuple[int, int]]:
+        """The pairs, among those that can talk, whose maps no chain of tracks links."""
+        groups = self.tracked_groups(count)
+        return [
+            (i, j)
+            for i in range(count)
+            for j in range(i + 1, count)
+            if groups[i] != groups[j] and (talks is None or talks(i, j))
+        ]
+
+    def _due_now(
+        self, grids: Sequence[OccupancyGrid], pairs: list[tuple[int, int]]
+    ) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+        """Of ``pairs``, those a search is due for now (not tracked, none pending, and new
+        walls since the last search or a track lost), each with its maps' wall counts."""
+        walls = [_walls(grid) for grid in grids]
+        due = []
+        for i, j in pairs:
+            state = self._pairs.setdefault((i, j), _PairState())
+            if state.tracked is not None or state.pending is not None:
+                continue
+            counts = (walls[i], walls[j])
+            if state.search_due or self._grown(state, counts):
+                due.append(((i, j), counts))
+        return due
+
     def prepare(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> None:
         """Start of a round: search at once the pairs whose maps no track links yet (module
         docstring), when ``search_unlinked_at_once`` is set.
@@ -138,21 +164,26 @@ class TrackingEstimator:
             ``talks(i, j)``: whether the pair can exchange maps now (default:
             every pair can); pairs that cannot are not searched.
         """
-        urgent = set()
-        if self.config.tracker.search_unlinked_at_once:
-            groups = self.tracked_groups(len(grids))
-            for i in range(len(grids)):
-                for j in range(i + 1, len(grids)):
-                    if groups[i] == groups[j] or (talks is not None and not talks(i, j)):
-                        continue
-                    urgent.add((i, j))
-                    state = self._pairs.setdefault((i, j), _PairState())
-                    if state.tracked is not None or state.pending is not None:
-                        continue
-                    walls = (_walls(grids[i]), _walls(grids[j]))
-                    if state.search_due or self._grown(state, walls):
-                        self._submit(state, grids[i], grids[j], walls)
-        self._urgent = frozenset(urgent)
+        if not self.config.tracker.search_unlinked_at_once:
+            self._urgent = frozenset()
+            return
+        unlinked = self._unlinked(len(grids), talks)
+        self._urgent = frozenset(unlinked)
+        for (i, j), walls in self._due_now(grids, unlinked):
+            self._submit(self._pairs[(i, j)], grids[i], grids[j], walls)
+
+    def round_wanted(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> bool:
+        """Whether a round now could link maps not linked yet: a pair whose maps no track
+        links has a search pending to collect, or is due one (:meth:`prepare`).
+
+        The merger asks before a round between its regular ones
+        (``unlinked_merge_interval``): a round that could only refuse again is
+        left out. Same parameters as :meth:`prepare`.
+        """
+        unlinked = self._unlinked(len(grids), talks)
+        if any(p in self._pairs and self._pairs[p].pending is not None for p in unlinked):
+            return True
+        return bool(self._due_now(grids, unlinked))
 
     @property
     def method(self) -> str:

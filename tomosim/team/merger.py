@@ -60,6 +60,8 @@ frame ``i``."""
 RoundStart = Callable[[Sequence[OccupancyGrid]], None]
 """``before_round(grids)``: called with every robot's grid at the start of a round, before
 any pair is estimated."""
+RoundWanted = Callable[[Sequence[OccupancyGrid]], bool]
+"""``round_wanted(grids)``: whether the pair estimator could link maps in a round now."""
 
 
 def robot_name(index: int) -> str:
@@ -207,9 +209,20 @@ class TeamMerger:
         method=config.method)``.
     before_round : RoundStart, optional
         Called with the grids at the start of every round (step 0).
+    round_wanted : RoundWanted, optional
+        Asked before a round between the regular ones (:meth:`due`); without
+        it, every such round runs.
     """
 
-    __slots__ = ("_all_linked", "_before_round", "_estimator", "_rng", "_streaks", "config")
+    __slots__ = (
+        "_all_linked",
+        "_before_round",
+        "_estimator",
+        "_rng",
+        "_round_wanted",
+        "_streaks",
+        "config",
+    )
 
     def __init__(
         self,
@@ -218,6 +231,7 @@ class TeamMerger:
         rng: RngLike = None,
         estimator: PairEstimator | None = None,
         before_round: RoundStart | None = None,
+        round_wanted: RoundWanted | None = None,
     ) -> None:
         if estimator is None:
             check_method(config.method)
@@ -225,6 +239,7 @@ class TeamMerger:
         self._rng = as_generator(rng)
         self._estimator = estimator
         self._before_round = before_round
+        self._round_wanted = round_wanted
         self._streaks: dict[tuple[int, int], tuple[int, NDArray[np.float64]]] = {}
         self._all_linked = False
 
@@ -242,9 +257,27 @@ class TeamMerger:
             return self.config.merge_interval
         return min(self.config.merge_interval, self.config.unlinked_merge_interval)
 
-    def due(self, step: int) -> bool:
-        """Whether a round runs after step ``step``: a multiple of :attr:`interval`."""
-        return step > 0 and step % self.interval == 0
+    def due(self, step: int, grids: Callable[[], Sequence[OccupancyGrid]] | None = None) -> bool:
+        """Whether a round runs after step ``step``.
+
+        Every multiple of ``merge_interval`` is a regular round. While the maps
+        are not all linked into one, every multiple of :attr:`interval` is a
+        round too, when it can change something: a pair awaits its
+        confirmation, or the pair estimator could link maps (``round_wanted``,
+        asked with ``grids()``, the robots' grids now; a round that could only
+        refuse the same pairs on the same maps again costs time for nothing).
+        Without ``grids`` or ``round_wanted`` every such round runs.
+        """
+        if step <= 0 or step % self.interval != 0:
+            return False
+        if step % self.config.merge_interval == 0:
+            return True
+        if grids is None or self._round_wanted is None:
+            return True
+        needed = self.config.confirmations
+        if any(count < needed for count, _ in self._streaks.values()):
+            return True
+        return self._round_wanted(grids())
 
     def estimate(self, i: int, j: int, grids: Sequence[OccupancyGrid]) -> MergeResult:
         """Step 1 for the pair ``(i, j)``."""

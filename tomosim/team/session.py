@@ -157,13 +157,21 @@ class TeamSession:
         estimator = self._estimator(rng, tracker)
         if tracker is None:
             return TeamMerger(self.config, rng=rng, estimator=estimator)
-        start = tracker.prepare
         talks = None if self.config.comms.unlimited else self.reaches
 
         def before_round(grids: Sequence[OccupancyGrid]) -> None:
-            start(grids, talks)
+            tracker.prepare(grids, talks)
 
-        return TeamMerger(self.config, rng=rng, estimator=estimator, before_round=before_round)
+        def round_wanted(grids: Sequence[OccupancyGrid]) -> bool:
+            return tracker.round_wanted(grids, talks)
+
+        return TeamMerger(
+            self.config,
+            rng=rng,
+            estimator=estimator,
+            before_round=before_round,
+            round_wanted=round_wanted,
+        )
 
     def _estimator(
         self, rng: np.random.Generator, tracker: TrackingEstimator | None
@@ -204,7 +212,7 @@ class TeamSession:
             self.reach = self._reach_groups()
         reach = None if self.config.comms.unlimited else self.reach
         scored = None
-        if self.merger is not None and self.merger.due(self.steps):
+        if self.merger is not None and self.merger.due(self.steps, self.grids):
             grids = self.grids()
             merge = self.merger.merge(self.steps, grids)
             scored = score_round(merge, grids, self.simulation.start_poses, self.world.truth)

@@ -371,3 +371,11 @@ def test_pairs_linked_through_tracks_wait_for_the_next_round(
     four.prepare([small] * 4)
     assert len(seeds) == 10
     assert four(1, 2, small, small).accepted and four.tracked_groups(4) == (0, 0, 0, 0)
+    assert not four.round_wanted([small] * 4)  # one group: nothing left to link
+    # A pair not linked is due a search when its maps gain walls (or a search is pending).
+    other = tracking_module.TrackingEstimator(INLINE, rng=0)
+    assert other.round_wanted(grids)
+    other.prepare(grids)
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        other(i, j, small, small)
+    assert not other.round_wanted(grids)

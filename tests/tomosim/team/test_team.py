@@ -191,6 +191,18 @@ def test_rounds_come_sooner_while_the_maps_are_not_all_linked_into_one(world: Wo
     refused["pairs"] = set()
     merger.merge(15, grids)
     assert merger.interval == 20 and not merger.due(25) and merger.due(40)
+    # Between regular rounds, a round runs only when it could change something.
+    twice = TeamConfig(method=ORACLE, merge_interval=20, unlinked_merge_interval=5)
+    unlinked = TeamMerger(twice, estimator=estimator, round_wanted=lambda grids: False)
+    refused["pairs"] = {(0, 1), (0, 2), (1, 2)}
+    assert unlinked.due(5) and not unlinked.due(5, lambda: grids)  # without grids: it runs
+    unlinked.merge(5, grids)
+    assert not unlinked.due(10, lambda: grids) and unlinked.due(20, lambda: grids)
+    refused["pairs"] = {(0, 2), (1, 2)}
+    unlinked.merge(20, grids)  # (0, 1) accepted once: its confirmation is due
+    assert unlinked.due(25, lambda: grids)
+    unlinked.merge(25, grids)  # confirmed; robot 2 is still alone, with nothing to do
+    assert not unlinked.due(30, lambda: grids) and unlinked.due(40, lambda: grids)
     # Never shorter than merge_interval, and one robot alone has nobody to link to.
     assert TeamMerger(TeamConfig(merge_interval=4)).interval == 4
     alone = TeamMerger(TeamConfig(merge_interval=20))
