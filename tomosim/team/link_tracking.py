@@ -240,8 +240,8 @@ class TrackingEstimator:
         elif due:  # 3. a lost track, or new walls: search again
             self._submit(state, grid_1, grid_2, walls)
             why = "searching globally; the result is used at the next round"
-        elif found is not None and not found.accepted:
-            why = "the global search collected at this round was not accepted"
+        elif found is not None and not found.accepted and (first, second) in self._urgent:
+            why = "the global search of this round was not accepted"
         elif loose is None and not (state.last is not None and state.last.accepted):
             why = "no new walls since the last global search, which was not accepted"
         else:
