@@ -608,6 +608,7 @@ def env(**kwargs: Any) -> AECEnv:
 __all__ = [
     "HELD_OUT_FLOORS",
     "TRAINING_FLOORS",
+    "V0_TEAM",
     "MultiRobotExplorationEnv",
     "agent_name",
     "env",
