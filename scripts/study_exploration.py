@@ -24,8 +24,10 @@ runs what it lacks, and anything else the grid asks for comes last):
 7. generated floors, the other policies;
 8. the rest of the grid (real maps' other policies).
 
-Outputs in ``--out``: the CSVs, ``study_exploration.md`` (tables and the
-acceptance checks) and two PNGs (time to 90 % against team size; speed-up of
+Outputs in ``--out``: the CSVs, ``study_exploration.md`` (tables, the
+acceptance checks, and the tomographic merger against the oracle: time
+ratio, share of the oracle's saving and first linking step, per episode
+and with intervals over the episodes) and two PNGs (time to 90 % against team size; speed-up of
 merging and the share of the oracle's speed-up the tomographic merger reaches).
 
 Usage::
@@ -46,6 +48,8 @@ from exploration_study.report import (
     checks,
     checks_markdown,
     comm_table,
+    criterion_table,
+    first_links_table,
     policies_table,
     policies_verdict,
     times_table,
@@ -134,6 +138,18 @@ def report(
         "## Acceptance checks",
         "",
         checks_markdown(checks(worlds, tables, policy, grid.robots)),
+        "",
+        f"## Against the oracle (generated floors, {CORE_TEAM} robots)",
+        "",
+        "Intervals: the middle 90 % over the episodes resampled with replacement "
+        "(each with its three methods). The first link is the step of the first merge "
+        "round that linked two maps, median (range) over the episodes.",
+        "",
+        criterion_table(worlds, tables, policy, CORE_TEAM),
+        "",
+        "Per episode:",
+        "",
+        first_links_table(worlds, tables, policy, CORE_TEAM),
         "",
         "## Progress: episodes in the results files, of those the study plans",
         "",

@@ -42,6 +42,9 @@ class Cell:
         Accepted merges beyond the accuracy bar, false matches, false matches
         that were also confirmed (and so linked maps), all accepted; summed
         over seeds.
+    first_links : tuple of float
+        Per seed (same order), the step of the first merge round that linked
+        two maps, NaN when none did.
     """
 
     times: tuple[float, ...]
@@ -52,6 +55,7 @@ class Cell:
     gross_wrong: int
     gross_wrong_confirmed: int
     accepted: int
+    first_links: tuple[float, ...] = ()
 
     @property
     def median(self) -> float:
@@ -92,6 +96,7 @@ def cells(rows: Iterable[dict[str, str]]) -> dict[tuple[int, str, str], Cell]:
             gross_wrong=sum(int(r["pairs_gross_wrong"]) for r in mine),
             gross_wrong_confirmed=sum(int(r["pairs_gross_wrong_confirmed"]) for r in mine),
             accepted=sum(int(r["pairs_accepted"]) for r in mine),
+            first_links=tuple(_number(r.get("first_link_step", "")) for r in mine),
         )
     return out
 
@@ -145,6 +150,7 @@ def pooled(tables: Sequence[dict[tuple[int, str, str], Cell]], robots: int, poli
         gross_wrong=sum(c.gross_wrong for c in found),
         gross_wrong_confirmed=sum(c.gross_wrong_confirmed for c in found),
         accepted=sum(c.accepted for c in found),
+        first_links=tuple(step for c in found for step in c.first_links),
     )
 
 
@@ -181,6 +187,7 @@ def on_common_seeds(found: Sequence[Cell | None]) -> list[Cell | None]:
                 gross_wrong=cell.gross_wrong,
                 gross_wrong_confirmed=cell.gross_wrong_confirmed,
                 accepted=cell.accepted,
+                first_links=tuple(cell.first_links[k] for k in keep) if cell.first_links else (),
             )
         )
     return out

@@ -74,6 +74,15 @@ class TrackingParams:
         twice as long (499 s against 254 s) with no wrong merge avoided. 0.5
         is what every track was held to before acceptance moved to 0.6, over
         352 study episodes without a false match.
+    search_unlinked_at_once : bool
+        Search a pair in the round itself, and use the result at once, while
+        no chain of tracked pairs links its two maps
+        (:meth:`~tomosim.team.link_tracking.TrackingEstimator.prepare`);
+        otherwise a search's result is used at the pair's next round. Robots
+        whose maps are not linked re-explore what the other has seen, so the
+        link is worth a round; pairs linked through teammates already wait.
+        The worker process and the session's share these searches, so the
+        session waits for them.
     """
 
     search_every_rounds: int = 4
@@ -81,6 +90,7 @@ class TrackingParams:
     search_min_new_walls: int = 20
     new_track_quality: float = DEFAULT_PARAMS.confidence.fit_centre
     keep_confidence: float = 0.5
+    search_unlinked_at_once: bool = True
 
     def __post_init__(self) -> None:
         whole_number(self.search_every_rounds, "search_every_rounds", minimum=1, unit="rounds")
@@ -88,6 +98,7 @@ class TrackingParams:
         whole_number(self.search_min_new_walls, "search_min_new_walls", minimum=0, unit="cells")
         real_number(self.new_track_quality, "new_track_quality", high=1.0)
         real_number(self.keep_confidence, "keep_confidence", low=0.0, high=1.0)
+        boolean(self.search_unlinked_at_once, "search_unlinked_at_once")
 
     def keep_params(self, params: TomographicParams = DEFAULT_PARAMS) -> TomographicParams:
         """``params`` with the acceptance threshold of a kept track, :attr:`keep_confidence`."""
@@ -112,6 +123,16 @@ class TeamConfig:
         round estimates every pair of maps, so its time grows with the square
         of the team; between two rounds each robot sees a few metres of new
         walls. Every benchmark and study of the project ran with 50.
+    unlinked_merge_interval : int
+        Steps between merge rounds while the robots' maps are not all linked
+        into one (from the start, and whenever the last round left them in
+        more than one group; the shorter of this and ``merge_interval`` is
+        used): 10, 1 s. Robots whose maps are not linked explore without each
+        other's maps and re-explore what the others have seen, so a link is
+        worth having as soon as the maps allow it; rounds cost computing
+        time, not simulated time, and a global search is run only when a
+        pair's maps have gained walls since its last one (``tracker``).
+        Setting it to ``merge_interval`` keeps one interval throughout.
     confirmations : int
         Consecutive rounds that must accept consistent estimates of a pair
         before the pair links maps (1: use an estimate as soon as it is
@@ -155,6 +176,7 @@ class TeamConfig:
     merge: bool = True
     method: str = DEFAULT_METHOD
     merge_interval: int = 50
+    unlinked_merge_interval: int = 10
     confirmations: int = 2
     confirm_rotation_deg: float = 3.0
     confirm_translation_m: float = 0.5
@@ -168,7 +190,7 @@ class TeamConfig:
 
     def __post_init__(self) -> None:
         check_team_method(self.method)
-        for name in ("merge_interval", "share_interval"):
+        for name in ("merge_interval", "unlinked_merge_interval", "share_interval"):
             whole_number(getattr(self, name), name, minimum=1, unit="steps")
         whole_number(self.confirmations, "confirmations", minimum=1, unit="rounds")
         for name in ("merge", "tracking", "merge_worker"):

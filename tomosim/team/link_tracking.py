@@ -21,17 +21,28 @@ for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
    track have locked onto a wrong fit);
 4. otherwise returns the last search's result, not accepted, with the reason.
 
+A pair whose maps no track links yet, directly or through teammates,
+cannot wait a round: the robots explore without each other's maps, and
+re-explore what the other has seen. With ``search_unlinked_at_once``, such
+pairs are searched in the round itself, before any pair is estimated
+(:meth:`TrackingEstimator.prepare`, called by the merger at the start of a
+round): the worker process and this one share the searches, and each pair
+collects its own at step 1 of the same round. The maps are small then, and
+the searches cheap.
+
 The settings named are those of :class:`~tomosim.team.config.TrackingParams`,
 the team's ``tracker``.
 
-Searches are collected at a fixed later step (the next round), so a run is
-the same whether they ran in the worker process or inline. Compared with
-searching every pair every round, an accepted search takes effect one round
-later.
+Searches are collected at a fixed step (the next round, or the same round
+for maps not linked yet), so a run is the same whether they ran in the
+worker process or inline. Compared with searching every pair every round,
+an accepted search of two maps linked already through teammates takes
+effect one round later.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
 
@@ -49,6 +60,9 @@ from tomosim.team.worker import Searches, searches
 SEED_BOUND = 2**31
 """Seeds given to searches are drawn below this."""
 
+Talks = Callable[[int, int], bool]
+"""``talks(i, j)``: whether robots ``i`` and ``j`` can exchange maps this round."""
+
 
 @dataclass(slots=True)
 class _PairState:
@@ -59,6 +73,8 @@ class _PairState:
     walls_at_search: tuple[int, int] | None = None
     last: MergeResult | None = None
     pending: Future[MergeResult] | None = None
+    search_due: bool = False
+    """A search is wanted and left to the start of the next round (:meth:`prepare`)."""
 
 
 def _walls(grid: OccupancyGrid) -> int:
@@ -79,7 +95,7 @@ class TrackingEstimator:
         Source of the searches' seeds.
     """
 
-    __slots__ = ("_keep_params", "_pairs", "_rng", "_searches", "_walls", "config")
+    __slots__ = ("_keep_params", "_pairs", "_rng", "_searches", "_urgent", "_walls", "config")
 
     def __init__(self, config: TeamConfig, *, rng: RngLike = None) -> None:
         self.config = config
@@ -90,6 +106,87 @@ class TrackingEstimator:
         # Per robot, the grid its walls were last counted on and the count: a round asks
         # for each robot's grid once per pair it is in.
         self._walls: dict[int, tuple[OccupancyGrid, int]] = {}
+        self._urgent: frozenset[tuple[int, int]] = frozenset()
+
+    def tracked_groups(self, count: int) -> tuple[int, ...]:
+        """Per robot of ``count``, the lowest robot its map is linked to by tracked pairs,
+        directly or through teammates (its own number when no track links it)."""
+        group = list(range(count))
+
+        def root(k: int) -> int:
+            while group[k] != k:
+                k = group[k]
+            return k
+
+        for (i, j), state in sorted(self._pairs.items()):
+            if state.tracked is not None and max(i, j) < count:
+                low, high = sorted((root(i), root(j)))
+                group[high] = low
+        return tuple(root(k) for k in range(count))
+
+    def _unlinked(self, count: int, talks: Talks | None) -> list[tuple[int, int]]:
+        """The pairs, among those that can talk, whose maps no chain of tracks links."""
+        groups = self.tracked_groups(count)
+        return [
+            (i, j)
+            for i in range(count)
+            for j in range(i + 1, count)
+            if groups[i] != groups[j] and (talks is None or talks(i, j))
+        ]
+
+    def _due_now(
+        self, grids: Sequence[OccupancyGrid], pairs: list[tuple[int, int]]
+    ) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+        """Of ``pairs``, those a search is due for now (not tracked, none pending, and new
+        walls since the last search or a track lost), each with its maps' wall counts."""
+        walls = [self._wall_count(k, grid) for k, grid in enumerate(grids)]
+        due = []
+        for i, j in pairs:
+            state = self._pairs.setdefault((i, j), _PairState())
+            if state.tracked is not None or state.pending is not None:
+                continue
+            counts = (walls[i], walls[j])
+            if state.search_due or self._grown(state, counts):
+                due.append(((i, j), counts))
+        return due
+
+    def prepare(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> None:
+        """Start of a round: search at once the pairs whose maps no track links yet (module
+        docstring), when ``search_unlinked_at_once`` is set.
+
+        A pair is searched now when no chain of tracked pairs links its two
+        robots' maps, no search of it is pending, and it is due a search (its
+        maps gained walls since its last one, or its track was lost). Each
+        pair collects its search when the round estimates it (step 1).
+
+        Parameters
+        ----------
+        grids : sequence of OccupancyGrid
+            Every robot's grid of this round, in robot order.
+        talks : callable, optional
+            ``talks(i, j)``: whether the pair can exchange maps now (default:
+            every pair can); pairs that cannot are not searched.
+        """
+        if not self.config.tracker.search_unlinked_at_once:
+            self._urgent = frozenset()
+            return
+        unlinked = self._unlinked(len(grids), talks)
+        self._urgent = frozenset(unlinked)
+        for (i, j), walls in self._due_now(grids, unlinked):
+            self._submit(self._pairs[(i, j)], grids[i], grids[j], walls)
+
+    def round_wanted(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> bool:
+        """Whether a round now could link maps not linked yet: a pair whose maps no track
+        links has a search pending to collect, or is due one (:meth:`prepare`).
+
+        The merger asks before a round between its regular ones
+        (``unlinked_merge_interval``): a round that could only refuse again is
+        left out. Same parameters as :meth:`prepare`.
+        """
+        unlinked = self._unlinked(len(grids), talks)
+        if any(p in self._pairs and self._pairs[p].pending is not None for p in unlinked):
+            return True
+        return bool(self._due_now(grids, unlinked))
 
     @property
     def method(self) -> str:
@@ -107,7 +204,7 @@ class TrackingEstimator:
         """This round's estimate of the pair ``(first, second)`` (steps 1-4)."""
         state = self._pairs.setdefault((first, second), _PairState())
         found = None
-        if state.pending is not None:  # 1. last round's search
+        if state.pending is not None:  # 1. the search of the last round or of this one's start
             # The pairs after this one collect theirs at this round too: while the
             # worker finishes one, this process may run the others it has not started.
             later = [s.pending for k, s in sorted(self._pairs.items()) if k > (first, second)]
@@ -137,9 +234,17 @@ class TrackingEstimator:
         lost = state.tracked is not None
         state.tracked = None
         state.rounds_tracked = 0
-        if lost or self._grown(state, walls):  # 3. a lost track, or new walls: search again
+        due = lost or state.search_due or self._grown(state, walls)
+        if due and (first, second) in self._urgent:
+            # 3. no track links the pair's maps yet: search at the next round's start,
+            # on that round's maps, and use the result at once
+            state.search_due = True
+            why = "searching globally at the start of the next round"
+        elif due:  # 3. a lost track, or new walls: search again
             self._submit(state, grid_1, grid_2, walls)
             why = "searching globally; the result is used at the next round"
+        elif found is not None and not found.accepted and (first, second) in self._urgent:
+            why = "the global search of this round was not accepted"
         elif loose is None and not (state.last is not None and state.last.accepted):
             why = "no new walls since the last global search, which was not accepted"
         else:
@@ -195,3 +300,4 @@ class TrackingEstimator:
         state.pending = self._searches.submit(grid_1, grid_2, method=self.method, seed=seed)
         state.walls_at_search = walls
         state.rounds_tracked = 0
+        state.search_due = False

@@ -2,6 +2,9 @@
 
 A merge round
 
+0. lets the pair estimator prepare the round (``before_round``: the tracker
+   starts the searches the round itself needs,
+   :meth:`~tomosim.team.link_tracking.TrackingEstimator.prepare`);
 1. estimates the transform of every pair of the robots' current grids, with
    :func:`merging.estimate_transform` or with the :data:`PairEstimator` given;
 2. counts an estimate as *confirmed* when the merger accepted it in
@@ -16,6 +19,13 @@ A merge round
    the team's ``linking`` settings): a consistent spanning forest, each
    robot's frame placed in its group's root robot's frame;
 4. fuses the main group (:func:`merging.linking.forest.fuse_group`).
+
+Rounds run every ``merge_interval`` steps, and every
+``unlinked_merge_interval`` steps while the robots' maps are not all linked
+into one (:meth:`TeamMerger.due`): robots whose maps are not linked explore
+without each other's maps and re-explore what the others have seen, so
+each link is worth the extra rounds, which cost computing time, not
+simulated time.
 
 A round sees the grids alone, never the truth: scoring it against the true
 start poses is :func:`tomosim.team.quality.score_round`'s job.
@@ -47,6 +57,11 @@ PairEstimator = Callable[[int, int, OccupancyGrid, OccupancyGrid], MergeResult]
 """``estimator(i, j, grid_i, grid_j) -> MergeResult`` for robots ``i < j``: its matrix
 takes grid ``j``'s cells to grid ``i``'s and its ``matrix_metres`` frame ``j`` to
 frame ``i``."""
+RoundStart = Callable[[Sequence[OccupancyGrid]], None]
+"""``before_round(grids)``: called with every robot's grid at the start of a round, before
+any pair is estimated."""
+RoundWanted = Callable[[Sequence[OccupancyGrid]], bool]
+"""``round_wanted(grids)``: whether the pair estimator could link maps in a round now."""
 
 
 def robot_name(index: int) -> str:
@@ -184,17 +199,30 @@ class TeamMerger:
     config : TeamConfig
         The team's settings; the merger reads ``method`` (a method of
         :func:`merging.available_methods`, or, with ``estimator``, the name it
-        is reported under), ``merge_interval`` (rounds run after steps
-        ``merge_interval``, ``2 * merge_interval``, ...), ``confirmations``,
-        ``confirm_rotation_deg``, ``confirm_translation_m`` and ``linking``.
+        is reported under), ``merge_interval`` and ``unlinked_merge_interval``
+        (:meth:`due`), ``confirmations``, ``confirm_rotation_deg``,
+        ``confirm_translation_m`` and ``linking``.
     rng : numpy.random.Generator, int or None
         Source of the merging methods' randomness; one stream serves all rounds.
     estimator : PairEstimator, optional
         Estimates a pair instead of ``merging.estimate_transform(grid_i, grid_j,
         method=config.method)``.
+    before_round : RoundStart, optional
+        Called with the grids at the start of every round (step 0).
+    round_wanted : RoundWanted, optional
+        Asked before a round between the regular ones (:meth:`due`); without
+        it, every such round runs.
     """
 
-    __slots__ = ("_estimator", "_rng", "_streaks", "config")
+    __slots__ = (
+        "_all_linked",
+        "_before_round",
+        "_estimator",
+        "_rng",
+        "_round_wanted",
+        "_streaks",
+        "config",
+    )
 
     def __init__(
         self,
@@ -202,13 +230,18 @@ class TeamMerger:
         *,
         rng: RngLike = None,
         estimator: PairEstimator | None = None,
+        before_round: RoundStart | None = None,
+        round_wanted: RoundWanted | None = None,
     ) -> None:
         if estimator is None:
             check_method(config.method)
         self.config = config
         self._rng = as_generator(rng)
         self._estimator = estimator
+        self._before_round = before_round
+        self._round_wanted = round_wanted
         self._streaks: dict[tuple[int, int], tuple[int, NDArray[np.float64]]] = {}
+        self._all_linked = False
 
     @property
     def method(self) -> str:
@@ -217,12 +250,34 @@ class TeamMerger:
 
     @property
     def interval(self) -> int:
-        """Steps between merge rounds."""
-        return self.config.merge_interval
+        """Steps between merge rounds now: ``merge_interval`` once the last round linked all
+        robots' maps into one, else the shorter of it and ``unlinked_merge_interval``
+        (from the start, before any round)."""
+        if self._all_linked:
+            return self.config.merge_interval
+        return min(self.config.merge_interval, self.config.unlinked_merge_interval)
 
-    def due(self, step: int) -> bool:
-        """Whether a round runs after step ``step``."""
-        return step > 0 and step % self.interval == 0
+    def due(self, step: int, grids: Callable[[], Sequence[OccupancyGrid]] | None = None) -> bool:
+        """Whether a round runs after step ``step``.
+
+        Every multiple of ``merge_interval`` is a regular round. While the maps
+        are not all linked into one, every multiple of :attr:`interval` is a
+        round too, when it can change something: a pair awaits its
+        confirmation, or the pair estimator could link maps (``round_wanted``,
+        asked with ``grids()``, the robots' grids now; a round that could only
+        refuse the same pairs on the same maps again costs time for nothing).
+        Without ``grids`` or ``round_wanted`` every such round runs.
+        """
+        if step <= 0 or step % self.interval != 0:
+            return False
+        if step % self.config.merge_interval == 0:
+            return True
+        if grids is None or self._round_wanted is None:
+            return True
+        needed = self.config.confirmations
+        if any(count < needed for count, _ in self._streaks.values()):
+            return True
+        return self._round_wanted(grids())
 
     def estimate(self, i: int, j: int, grids: Sequence[OccupancyGrid]) -> MergeResult:
         """Step 1 for the pair ``(i, j)``."""
@@ -264,6 +319,8 @@ class TeamMerger:
             raise TypeError("grids must be OccupancyGrids, one per robot in robot order")
         clock = time.perf_counter()
         count = len(grids)
+        if self._before_round is not None:
+            self._before_round(grids)
         raw: dict[tuple[int, int], MergeResult] = {}
         confirmed: dict[tuple[int, int], MergeResult] = {}
         for i in range(count):
@@ -277,6 +334,7 @@ class TeamMerger:
                     result = replace(result, accepted=False, reason=why)
                 confirmed[(i, j)] = result
         linking = link_maps(grids, confirmed, params=self.config.linking)
+        self._all_linked = len(set(linking.roots)) == 1
         merged = fuse_group(grids, linking, linking.main).grid
         assert merged is not None  # OccupancyGrid inputs give a georeferenced fused map
         pairs = tuple(

@@ -8,8 +8,9 @@ runner drive. One :meth:`TeamSession.step`
    team knows for the first time (:mod:`tomosim.team.coverage`);
 3. finds who can talk to whom (:mod:`tomosim.team.comms`; everyone, without
    a communication range);
-4. every ``merge_interval`` steps, when merging is on, runs a merge round
-   (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone, over the
+4. every ``merge_interval`` steps (``unlinked_merge_interval`` while the
+   robots' maps are not all linked into one), when merging is on, runs a merge
+   round (:class:`~tomosim.team.merger.TeamMerger`, from the grids alone, over the
    pairs that can talk), adopts its links, and scores it against the truth
    (:func:`~tomosim.team.quality.score_round`);
 5. rebuilds the teammate layers that are due, each robot taking in the grids
@@ -24,6 +25,8 @@ for the simulation (start poses, odometry, lidar) and one for the merger.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,11 +112,7 @@ class TeamSession:
         )
         count = self.simulation.count
         self.reach = self._reach_groups()
-        self.merger = (
-            TeamMerger(self.config, rng=merge_rng, estimator=self._estimator(merge_rng))
-            if self.config.merge
-            else None
-        )
+        self.merger = self._merger(merge_rng) if self.config.merge else None
         self.shared = SharedMaps(count, refresh_interval=self.config.share_interval)
         self.coverage = TeamCoverage(
             world,
@@ -148,16 +147,42 @@ class TeamSession:
             self._grids = [self.simulation.grid(k) for k in range(self.count)]
         return self._grids
 
-    def _estimator(self, rng: np.random.Generator) -> PairEstimator | None:
-        """The merger's pair estimator: the oracle's, the tracker's (the default method,
+    def _merger(self, rng: np.random.Generator) -> TeamMerger:
+        """The team's merger with its pair estimator (:meth:`_estimator`) and, with the
+        tracker, the tracker's start of a round (searches the round itself needs, among
+        the pairs that can talk)."""
+        tracker = None
+        if self.config.tracking and self.config.method == DEFAULT_METHOD:
+            tracker = TrackingEstimator(self.config, rng=rng)
+        estimator = self._estimator(rng, tracker)
+        if tracker is None:
+            return TeamMerger(self.config, rng=rng, estimator=estimator)
+        talks = None if self.config.comms.unlimited else self.reaches
+
+        def before_round(grids: Sequence[OccupancyGrid]) -> None:
+            tracker.prepare(grids, talks)
+
+        def round_wanted(grids: Sequence[OccupancyGrid]) -> bool:
+            return tracker.round_wanted(grids, talks)
+
+        return TeamMerger(
+            self.config,
+            rng=rng,
+            estimator=estimator,
+            before_round=before_round,
+            round_wanted=round_wanted,
+        )
+
+    def _estimator(
+        self, rng: np.random.Generator, tracker: TrackingEstimator | None
+    ) -> PairEstimator | None:
+        """The merger's pair estimator: the oracle's, the tracker (the default method,
         with tracking) or None (the method's own search every round); without a
         communication range as it is, else asked only for the pairs that can talk."""
         method = self.config.method
-        base: PairEstimator | None = None
+        base: PairEstimator | None = tracker
         if method == ORACLE:
             base = oracle_estimator(self.simulation.start_poses)
-        elif self.config.tracking and method == DEFAULT_METHOD:
-            base = TrackingEstimator(self.config, rng=rng)
         if self.config.comms.unlimited:
             return base
 
@@ -187,7 +212,7 @@ class TeamSession:
             self.reach = self._reach_groups()
         reach = None if self.config.comms.unlimited else self.reach
         scored = None
-        if self.merger is not None and self.merger.due(self.steps):
+        if self.merger is not None and self.merger.due(self.steps, self.grids):
             grids = self.grids()
             merge = self.merger.merge(self.steps, grids)
             scored = score_round(merge, grids, self.simulation.start_poses, self.world.truth)

@@ -23,7 +23,8 @@ from tomosim.cli import main
 from tomosim.commands import progress
 
 SHORT_RUN = ["--robots", "2", "--steps", "60", "--merge-interval", "20", "--seed", "3"]
-"""A run short enough for the suite: two robots, three merge rounds on the default floor."""
+"""A run short enough for the suite: two robots on the default floor, merge rounds every 20
+steps, and every 10 while their maps are not linked."""
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 STOP_TIMEOUT_S = 120.0
 """Longest wait for a run in its own process to get going, or to stop once signalled."""
@@ -48,7 +49,7 @@ def test_explore_reports_a_run_and_records_it(explored: tuple[Path, dict]) -> No
     record, report = explored
     assert report["steps"] == 60 and report["stop_reason"] == "step limit reached"
     assert report["settings"]["robots"] == 2 and report["settings"]["world"] == "floorplan seed=0"
-    assert [m["step"] for m in report["merges"]] == [20, 40, 60]
+    assert [m["step"] for m in report["merges"]] == [10, 20, 30, 40, 50, 60]
     assert 0.0 < report["coverage"] < 1.0
     assert report["record"] == str(record)
     verify(record)

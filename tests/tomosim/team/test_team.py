@@ -169,6 +169,47 @@ def test_a_pair_estimator_replaces_the_merging_method(world: World) -> None:
         np.testing.assert_allclose(relative, true_relative(starts[0], starts[k]), atol=EXACT)
 
 
+def test_rounds_come_sooner_while_the_maps_are_not_all_linked_into_one(world: World) -> None:
+    starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2], [6.0, 5.0, 1.0]])
+    grids = [robot_view(world, start) for start in starts]
+    refused = {"pairs": {(0, 1), (0, 2), (1, 2)}}
+
+    def estimator(i: int, j: int, first: OccupancyGrid, second: OccupancyGrid) -> MergeResult:
+        metres = true_relative(starts[i], starts[j])
+        cells = np.linalg.inv(first.cell_to_world_matrix()) @ metres @ second.cell_to_world_matrix()
+        return MergeResult(cells, 1.0, (i, j) not in refused["pairs"], "truth", metres)
+
+    config = TeamConfig(method=ORACLE, merge_interval=20, unlinked_merge_interval=5,
+                        confirmations=1)  # fmt: skip
+    merger = TeamMerger(config, estimator=estimator)
+    assert merger.interval == 5 and merger.due(5) and not merger.due(7)  # before any round
+    merger.merge(5, grids)
+    assert merger.interval == 5
+    refused["pairs"] = {(0, 2), (1, 2)}  # robot 2 stays alone
+    merger.merge(10, grids)
+    assert merger.interval == 5 and merger.due(15)
+    refused["pairs"] = set()
+    merger.merge(15, grids)
+    assert merger.interval == 20 and not merger.due(25) and merger.due(40)
+    # Between regular rounds, a round runs only when it could change something.
+    twice = TeamConfig(method=ORACLE, merge_interval=20, unlinked_merge_interval=5)
+    unlinked = TeamMerger(twice, estimator=estimator, round_wanted=lambda grids: False)
+    refused["pairs"] = {(0, 1), (0, 2), (1, 2)}
+    assert unlinked.due(5) and not unlinked.due(5, lambda: grids)  # without grids: it runs
+    unlinked.merge(5, grids)
+    assert not unlinked.due(10, lambda: grids) and unlinked.due(20, lambda: grids)
+    refused["pairs"] = {(0, 2), (1, 2)}
+    unlinked.merge(20, grids)  # (0, 1) accepted once: its confirmation is due
+    assert unlinked.due(25, lambda: grids)
+    unlinked.merge(25, grids)  # confirmed; robot 2 is still alone, with nothing to do
+    assert not unlinked.due(30, lambda: grids) and unlinked.due(40, lambda: grids)
+    # Never shorter than merge_interval, and one robot alone has nobody to link to.
+    assert TeamMerger(TeamConfig(merge_interval=4)).interval == 4
+    alone = TeamMerger(TeamConfig(merge_interval=20))
+    alone.merge(10, grids[:1])
+    assert alone.interval == 20
+
+
 def lattice_grid(
     rng: np.random.Generator, shape: tuple[int, int], anchor: tuple[int, int]
 ) -> OccupancyGrid:
@@ -336,6 +377,10 @@ def test_config_rejects_bad_values() -> None:
         TeamConfig(comms=5.0)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="keep_confidence must be a number in"):
         TrackingParams(keep_confidence=1.5)
+    with pytest.raises(ValueError, match="unlinked_merge_interval must be a whole number"):
+        TeamConfig(unlinked_merge_interval=0)
+    with pytest.raises(ValueError, match="search_unlinked_at_once must be True or False"):
+        TrackingParams(search_unlinked_at_once="yes")  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="config must be a TeamConfig"):
         TeamSession(generate_floorplan(4), robots=2, config="fast")  # type: ignore[arg-type]
 

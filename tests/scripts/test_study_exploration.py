@@ -1,0 +1,104 @@
+"""``scripts/study_exploration.py``'s report: the tomographic merger against the oracle."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from tests.support import REPO_ROOT
+
+
+@pytest.fixture
+def study(monkeypatch: pytest.MonkeyPatch):  # the study's package lives among the scripts
+    monkeypatch.syspath_prepend(str(REPO_ROOT / "scripts"))
+    from exploration_study import report, summary, worlds
+
+    return report, summary, worlds
+
+
+def rows(method: str, times: list[float], links: list[int | None]) -> list[dict[str, str]]:
+    """Results rows of 4-robot episodes of one method, seeds 0, 1, ..."""
+    zero = {
+        "path_length_m": "1",
+        "overlap_rate": "0",
+        "pairs_wrong": "0",
+        "pairs_gross_wrong": "0",
+        "pairs_gross_wrong_confirmed": "0",
+        "pairs_accepted": "0",
+    }
+    return [
+        {
+            **zero,
+            "robots": "4",
+            "policy": "utility",
+            "method": method,
+            "seed": str(seed),
+            "time_to_target_s": "" if math.isinf(t) else str(t),
+            "first_link_step": "" if link is None else str(link),
+        }
+        for seed, (t, link) in enumerate(zip(times, links, strict=True))
+    ]
+
+
+def test_the_oracle_figures_pair_episodes_and_show_first_links(study) -> None:
+    report, summary, worlds = study
+    floor = worlds.resolve("0", 400)
+    table = summary.cells(
+        rows("none", [100.0, 80.0, 120.0], [None] * 3)
+        + rows("tomographic", [60.0, 50.0, 70.0], [150, 200, None])
+        + rows("oracle", [50.0, 50.0, 60.0], [100, 100, 100])
+    )
+    none, tomo, oracle = (table[(4, "utility", m)] for m in ("none", "tomographic", "oracle"))
+    episodes = report.paired_episodes(none, tomo, oracle)
+    assert episodes == [(100.0, 60.0, 50.0), (80.0, 50.0, 50.0), (120.0, 70.0, 60.0)]
+    # Medians: none 100, tomographic 60, oracle 50.
+    assert report.oracle_ratio_of(episodes) == pytest.approx(1.2)
+    assert report.oracle_share_of(episodes) == pytest.approx(0.8)
+    low, high = report.interval(episodes, report.oracle_ratio_of)
+    assert low <= 1.2 <= high
+    assert report.interval(episodes, report.oracle_ratio_of) == (low, high)  # seeded
+    text = report.criterion_table([floor], {floor.label: table}, "utility", 4)
+    assert "| floor0 | 3 | 1.20 (" in text
+    assert "| 175 (150-200), 1 never | 100 (100-100) | 0 |" in text
+    each = report.first_links_table([floor], {floor.label: table}, "utility", 4)
+    assert "| floor0 | 2 | - | 100 | 120 | 70 | 60 | 1.17 |" in each.splitlines()
+
+
+def test_the_checks_hold_the_merger_to_the_projects_exploration_target(study) -> None:
+    report, summary, worlds = study
+    floor = worlds.resolve("0", 400)
+    table = summary.cells(
+        rows("none", [100.0, 80.0, 120.0], [None] * 3)
+        + rows("tomographic", [60.0, 50.0, 70.0], [150, 200, None])
+        + rows("oracle", [50.0, 50.0, 60.0], [100, 100, 100])
+    )
+    found = {c.name: c for c in report.checks([floor], {floor.label: table}, "utility", [4])}
+    ratio = next(c for name, c in found.items() if "tomographic / oracle <= 1.05" in name)
+    share = next(c for name, c in found.items() if "share of the oracle's saving" in name)
+    assert not ratio.passed and "= 1.20" in ratio.figure
+    assert not share.passed and "= 0.80" in share.figure
+
+
+def test_the_report_only_run_writes_the_oracle_section(study, tmp_path: Path) -> None:
+    from tests.support import load_script
+
+    script = load_script("study_exploration")
+    assert (
+        script.main(
+            [
+                "--worlds",
+                "0",
+                "--robots",
+                "4",
+                "--report-only",
+                "--out",
+                str(tmp_path),
+                "--comm-ranges",
+            ]
+        )
+        == 0
+    )
+    written = (tmp_path / "study_exploration.md").read_text()
+    assert "## Against the oracle (generated floors, 4 robots)" in written
