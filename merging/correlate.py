@@ -13,6 +13,17 @@ To be cheap the correlation runs on a coarse grid (blocks of ``factor`` x
 ``factor`` cells). Map 1 enters as a signed *target*: its walls, blurred to
 tolerate the residual rotation error, minus a penalty on its clear free
 space, so a shift that lays map 2's walls across map 1's open rooms loses.
+
+The target mass a shift collects grows with how many of map 2's walls land
+on map 1's observed part, so a shift laying a large part of map 2 loosely on
+map 1 collects more than one laying a small part exactly, and maps that
+share 3-15 % of their area lose their true shift among the loose ones. Each
+shift's mass is therefore divided by a power of the number of map 2's wall
+blocks landing on map 1's observed blocks (``TranslationParams.overlap_power``;
+one more FFT correlation, with map 1's observed blocks): at one half it is a
+significance, the mean agreement of the landing walls times the square root
+of their number, which neither the loose large overlap nor one lucky block
+wins.
 """
 
 from __future__ import annotations
@@ -48,23 +59,37 @@ class CoarseMap:
         1 where a block holds an occupied cell.
     points : (M, 2) float ndarray
         ``(x, y)`` block indices of the blocks holding walls.
+    known : (rows, cols) float32 ndarray
+        1 where a block is observed (its centre cell is known, or it holds
+        a wall).
     """
 
     factor: int
     target: NDArray[np.float32]
     walls: NDArray[np.float32]
     points: NDArray[np.float64]
-    _spectra: dict[tuple[int, int], NDArray[np.complex64]] = field(
+    known: NDArray[np.float32]
+    _spectra: dict[tuple[str, tuple[int, int]], NDArray[np.complex64]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
 
     def target_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
         """``rfft2`` of ``target`` zero-padded to ``size``, kept for the next rotation."""
-        if size not in self._spectra:
-            spectrum = padded_rfft2(self.target, size)
+        return self._spectrum("target", self.target, size)
+
+    def known_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
+        """``rfft2`` of ``known`` zero-padded to ``size``, kept for the next rotation."""
+        return self._spectrum("known", self.known, size)
+
+    def _spectrum(
+        self, name: str, image: NDArray[np.float32], size: tuple[int, int]
+    ) -> NDArray[np.complex64]:
+        key = (name, size)
+        if key not in self._spectra:
+            spectrum = padded_rfft2(image, size)
             spectrum.setflags(write=False)  # shared by every rotation
-            self._spectra[size] = spectrum
-        return self._spectra[size]
+            self._spectra[key] = spectrum
+        return self._spectra[key]
 
 
 def padded_rfft2(image: NDArray[np.float32], size: tuple[int, int]) -> NDArray[np.complex64]:
@@ -108,14 +133,18 @@ def coarsen(
     centre = factor // 2
     sampled = prepared.clear_free[centre::factor, centre::factor]
     clear[: sampled.shape[0], : sampled.shape[1]] = sampled
+    known = walls.copy()
+    observed = prepared.cells[centre::factor, centre::factor] >= 0
+    known[: observed.shape[0], : observed.shape[1]] += observed
+    np.minimum(known, 1.0, out=known)
     wall_rows, wall_cols = np.nonzero(walls)
     blurred = blur_walls(wall_rows, wall_cols, shape, params.wall_blur)
     blurred /= max(float(blurred.max()), 1e-9)
     target = (blurred - params.free_penalty * clear).astype(np.float32)
     points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
-    for image in (target, walls, points):
+    for image in (target, walls, points, known):
         image.setflags(write=False)  # map 1's are shared with a second search
-    return CoarseMap(factor, target, walls, points)
+    return CoarseMap(factor, target, walls, points, known)
 
 
 def translation_peaks(
@@ -125,6 +154,8 @@ def translation_peaks(
     *,
     count: int,
     suppression: int = DEFAULT_TRANSLATION.peak_suppression,
+    overlap_power: float = DEFAULT_TRANSLATION.overlap_power,
+    min_overlap_blocks: float = DEFAULT_TRANSLATION.min_overlap_blocks,
 ) -> tuple[list[tuple[NDArray[np.float64], float]], list[tuple[NDArray[np.float64], float]]]:
     """Best translations of ``second``, rotated by ``theta`` and by ``theta + π``, onto ``first``.
 
@@ -145,13 +176,22 @@ def translation_peaks(
         Peaks to return per rotation.
     suppression : int
         Coarse cells around a peak within which weaker peaks are dropped.
+    overlap_power : float
+        Each shift's collected mass is divided by the number of map 2's wall
+        blocks landing on map 1's observed blocks to this power (at least
+        ``min_overlap_blocks``); 0 ranks by the mass itself (see the module
+        docstring).
+    min_overlap_blocks : float
+        Fewer landing wall blocks count as this many.
 
     Returns
     -------
     (list of (matrix, score), list of (matrix, score))
         For ``theta`` and for ``theta + π``: ``matrix`` takes map 2's
         full-resolution cells to map 1's; ``score`` is the target mass
-        collected per wall block of map 2, best first.
+        collected per wall block of map 2 (divided by the landing blocks'
+        number to ``overlap_power`` and multiplied by map 2's to it), best
+        first.
     """
     rotated = second.points @ rigid_matrix(0.0, 0.0, theta)[:2, :2].T
     low = np.floor(rotated.min(axis=0))
@@ -176,6 +216,15 @@ def translation_peaks(
     # in cell -rotated - low_twin = extent - c of the twin's image: correlating with
     # that mirrored image at shift s is convolving with this one at s + extent.
     convolution = fft.irfft2(target * forward, s=size)
+    if overlap_power > 0:
+        known = first.known_spectrum(size)
+        landing = fft.irfft2(known * np.conj(forward), s=size)
+        landing_twin = fft.irfft2(known * forward, s=size)
+        # Scaled back by map 2's whole mass, so that a shift laying all of map 2 on
+        # map 1's observed part keeps the score of the plain correlation.
+        scale = mass**overlap_power
+        correlation *= scale / np.maximum(landing, min_overlap_blocks) ** overlap_power
+        convolution *= scale / np.maximum(landing_twin, min_overlap_blocks) ** overlap_power
     mirrored = np.roll(convolution, (-int(extent[1]), -int(extent[0])), axis=(0, 1))
     low_twin = -(low + extent)
     return (

@@ -238,6 +238,8 @@ def _translation_hypotheses(
             theta,
             count=params.translation.peaks,
             suppression=params.translation.peak_suppression,
+            overlap_power=params.translation.overlap_power,
+            min_overlap_blocks=params.translation.min_overlap_blocks,
         )
         for peaks in turns:
             for matrix, value in peaks:
