@@ -129,19 +129,26 @@ class TranslationParams:
         dropped: they are the same answer.
     peaks : int
         Translations kept per rotation hypothesis.
-    overlap_power : float
-        A shift's collected target mass is divided by the number of map 2's
-        wall blocks landing on map 1's observed blocks to this power
-        (:mod:`merging.correlate`). At 0 a shift laying much of map 2
-        loosely on map 1 outranks one laying a small part exactly; at 1 one
-        lucky block ranks first. One half is the significance of the mean
-        agreement over the landing walls (it grows with the square root of
-        their number): on 300 low-overlap window pairs of four maps
-        (``scripts/bench_real_maps.py low-overlap``, seed 41), whose true
+    significant_peaks : int
+        Further translations kept per rotation hypothesis, the strongest by
+        significance rather than by collected mass (:mod:`merging.correlate`):
+        a shift laying much of map 2 loosely on map 1 collects more mass
+        than one laying a small part exactly, so the true shift of maps that
+        share 3-15 % of their area is rarely among the strongest by mass. On
+        300 low-overlap window pairs of four maps
+        (``scripts/bench_real_maps.py low-overlap``, seed 41) whose true
         rotation the search had found but whose true shift it had not, the
-        true shift rose among the three strongest for 65 % of them instead
-        of 4 %, and stayed there for 98 % of those it had found (0.4 and 0.6
-        did no better).
+        true shift was among the three most significant for 65 % of them
+        (4 % by mass). They join the screening; the refinement's first
+        admissions by correlation still take the strongest by mass (their
+        score is the mass they collect), so maps that overlap much are
+        searched as before.
+    overlap_power : float
+        Significance is the collected mass divided by the number of map 2's
+        wall blocks landing on map 1's observed blocks to this power. One
+        half is the mean agreement over the landing walls times the square
+        root of their number; 0.4 and 0.6 did no better on those pairs, and 1
+        (the mean agreement alone) lets one lucky block rank first.
     min_overlap_blocks : float
         Fewer landing wall blocks than this count as this many: a shift
         laying one or two blocks on map 1 collects too little to mean
@@ -153,6 +160,7 @@ class TranslationParams:
     free_penalty: float = 0.5
     peak_suppression: int = 2
     peaks: int = 3
+    significant_peaks: int = 3
     overlap_power: float = 0.5
     min_overlap_blocks: float = 4.0
 
@@ -194,6 +202,12 @@ class VerifyParams:
         more than the wrong one. Set on the even-numbered E5 session pairs
         and window pairs of four maps (any value from 1 to 2 ranks every
         window pair as 0.05 alone did), checked on the odd-numbered ones.
+    ranking_tolerance : int
+        When above 0, the ranking score (:attr:`merging.verify.Verification.score`)
+        adds the quality with walls counted as met within this many cells
+        (chessboard; conflicts only beyond it plus ``conflict_clearance``) to
+        the quality within ``near_radius``: ray consistency that survives
+        the bending between sessions. 0 ranks by the close quality alone.
     screen_stride : int
         Hypotheses are first screened with every ``screen_stride``-th
         verification point (about 1000 per map), enough to rank them; the
@@ -207,6 +221,7 @@ class VerifyParams:
     conflict_weight: float = 3.0
     overlap_preference: float = 0.05
     space_preference: float = 1.5
+    ranking_tolerance: int = 0
     screen_stride: int = 4
 
     def __post_init__(self) -> None:
@@ -586,6 +601,22 @@ class TomographicParams:
         a true but slightly misaligned transform can fit worse than one that
         lays a single outer corner on a corner, which the correlation
         (weighing how much overlaps) does not favour.
+    significance_refined : int
+        Of the candidates admitted to the first stage, how many more are
+        taken as the most significant shifts
+        (``TranslationParams.significant_peaks``): a small overlap's true
+        shift, slightly misaligned, verifies worse than loose large overlaps
+        until it is refined.
+    close_alternative : float
+        Quality (:attr:`merging.verify.Verification.quality`) at or above
+        which a placement of the pool is judged too when the best by score
+        is refused: walls meeting within a cell with almost no conflict.
+        The ranking score prefers much shared open space, which maps of
+        separate sessions need, and so may rank a loose large overlap above
+        the exact small one of maps that share 3-15 % of their area; the
+        verdict, not the score, then decides. Right placements of such
+        window pairs score 0.95-1 (``scripts/bench_real_maps.py
+        low-overlap``, seed 41), wrong ones the score preferred -1.2-0.9.
     widest_per_block : float
         Widest field of the first refinement stage, in blocks of the coarse
         correlation grid: its hypotheses are off by up to half a block plus
@@ -611,6 +642,8 @@ class TomographicParams:
     from_start: RefineStage = FROM_START
     mirror_stages: tuple[RefineStage, ...] = MIRROR_STAGES
     correlation_refined: int = 2
+    significance_refined: int = 2
+    close_alternative: float = 0.95
     widest_per_block: float = 0.75
     keep_refined_margin: float = 0.02
     distinct_cells: float = 4.0

@@ -93,7 +93,7 @@ from merging.angular import (
     rotation_peaks,
 )
 from merging.api import MIN_OCCUPIED_CELLS, register_method
-from merging.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
+from merging.correlate import CoarseMap, Peak, coarse_factor, coarsen, translation_peaks
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.metrics import as_matrix
 from merging.mirror import MirrorCandidates, mirrored_part, twin_ground
@@ -227,10 +227,10 @@ def _rotation_hypotheses(maps: _Maps, factor: int) -> tuple[list[float], CoarseM
 
 def _translation_hypotheses(
     coarse1: CoarseMap, coarse2: CoarseMap, thetas: list[float], params: TomographicParams
-) -> tuple[list[NDArray[np.float64]], list[float]]:
-    """For each rotation and its half-turn twin, the strongest translations and their values."""
-    candidates: list[NDArray[np.float64]] = []
-    correlation: list[float] = []
+) -> list[Peak]:
+    """For each rotation and its half-turn twin, the strongest and the most significant
+    translations."""
+    candidates: list[Peak] = []
     for theta in thetas:
         turns = translation_peaks(
             coarse1,
@@ -238,22 +238,20 @@ def _translation_hypotheses(
             theta,
             count=params.translation.peaks,
             suppression=params.translation.peak_suppression,
+            significant=params.translation.significant_peaks,
             overlap_power=params.translation.overlap_power,
             min_overlap_blocks=params.translation.min_overlap_blocks,
         )
         for peaks in turns:
-            for matrix, value in peaks:
-                candidates.append(matrix)
-                correlation.append(value)
-    return candidates, correlation
+            candidates += peaks
+    return candidates
 
 
-def _screened(
-    maps: _Maps, candidates: list[NDArray[np.float64]], correlation: list[float]
-) -> list[NDArray[np.float64]]:
+def _screened(maps: _Maps, candidates: list[Peak]) -> list[NDArray[np.float64]]:
     """Every hypothesis, in the order the refinement admits them.
 
-    First the ``correlation_refined`` strongest by correlation, then the rest
+    First the ``correlation_refined`` strongest by collected mass and the
+    ``significance_refined`` most significant of the others, then the rest
     by a quick verification on every ``screen_stride``-th wall cell: before
     refinement a true but slightly misaligned transform can fit worse than
     one that lays a single outer corner on a corner, which the correlation
@@ -262,13 +260,18 @@ def _screened(
     params = maps.params
     stride = params.verify.screen_stride
     scores = [
-        rank(verify(maps.first, maps.second, m, stride=stride, params=params.verify))
-        for m in candidates
+        rank(verify(maps.first, maps.second, peak.matrix, stride=stride, params=params.verify))
+        for peak in candidates
     ]
-    by_correlation = [int(i) for i in np.argsort(correlation)[::-1][: params.correlation_refined]]
+    masses = [peak.mass for peak in candidates]
+    by_mass = [int(i) for i in np.argsort(masses)[::-1][: params.correlation_refined]]
+    others = [i for i in range(len(candidates)) if i not in by_mass]
+    others.sort(key=lambda i: -candidates[i].significance)
+    by_significance = others[: params.significance_refined]
+    first = by_mass + by_significance
     by_score = sorted(range(len(candidates)), key=lambda i: -scores[i])
-    order = by_correlation + [i for i in by_score if i not in by_correlation]
-    return [candidates[i] for i in order]
+    order = first + [i for i in by_score if i not in first]
+    return [candidates[i].matrix for i in order]
 
 
 def coarse_to_fine(stage: RefineStage, factor: int, params: TomographicParams) -> RefineStage:
@@ -362,14 +365,50 @@ def _merge_observed(
             timings=timings,
             reason="no placement to weigh: the maps are too small to hold a wall direction",
         )
-    best = pool[0][1]
-    runner_up, far_runner_up = _runners_up(
-        pool, second.points, (params.distinct_cells, params.robust.distinct_cells)
-    )
     hypotheses = tuple(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
     )
-    return _judged(maps, best, (runner_up, far_runner_up), hypotheses, timings)
+    result = _judged_first(maps, pool, hypotheses, timings)
+    if result.accepted:
+        return result
+    # The best by score is refused: a placement whose walls meet exactly may explain a
+    # small overlap that the score, preferring much shared space, ranked below a loose
+    # large one. Such a placement is judged too, against all the others.
+    close = _close_alternative(maps, pool)
+    if close is None:
+        return result
+    pool = [pool[close], *pool[:close], *pool[close + 1 :]]
+    alternative = _judged_first(maps, pool, hypotheses, timings)
+    return alternative if alternative.accepted else result
+
+
+def _judged_first(
+    maps: _Maps,
+    pool: list[Candidate],
+    hypotheses: tuple[Hypothesis, ...],
+    timings: dict[str, float],
+) -> MergeResult:
+    """The verdict on the pool's first placement, held against the rest."""
+    params = maps.params
+    runners_up = _runners_up(
+        pool, maps.second.points, (params.distinct_cells, params.robust.distinct_cells)
+    )
+    return _judged(maps, pool[0][1], runners_up, hypotheses, timings)
+
+
+def _close_alternative(maps: _Maps, pool: list[Candidate]) -> int | None:
+    """Index of the pool's placement (after the first) that explains the most net wall
+    cells among those whose walls meet within a cell (``TomographicParams.close_alternative``
+    of the fit) and that lie farther than ``distinct_cells`` from the first; None if none."""
+    params = maps.params
+    best = pool[0][1]
+    chosen, most = None, 0.0
+    for k, (check, matrix) in enumerate(pool[1:], start=1):
+        if check.quality < params.close_alternative or check.net <= most:
+            continue
+        if _rms_between(matrix, best, maps.second.points) > params.distinct_cells:
+            chosen, most = k, check.net
+    return chosen
 
 
 def _runners_up(
@@ -405,9 +444,9 @@ def _search(maps: _Maps, factor: int, timings: dict[str, float]) -> list[Candida
 
     thetas, coarse1, coarse2 = _rotation_hypotheses(maps, factor)
     lap("rotation")
-    candidates, correlation = _translation_hypotheses(coarse1, coarse2, thetas, params)
+    candidates = _translation_hypotheses(coarse1, coarse2, thetas, params)
     lap("translation")
-    screened = _screened(maps, candidates, correlation)
+    screened = _screened(maps, candidates)
     lap("verify")
     pool = _refined(maps, screened, factor)
     lap("refine")

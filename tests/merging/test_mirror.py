@@ -176,10 +176,10 @@ def test_a_twin_beside_a_shared_wall_is_refused(monkeypatch) -> None:
     # its twin there.
     data = np.load(TWIN_WALLS)
     first, second, truth = data["map1"], data["map2"], data["truth"]
-    # The pair was drawn for the search ranking shifts by the collected mass alone,
-    # whose best placement is the twin's; ranked by significance, a rival placement
-    # refuses it before the mirror is looked at.
-    by_mass = replace(DEFAULT_PARAMS.translation, overlap_power=0.0)
+    # The pair was drawn for the search taking shifts by the collected mass alone,
+    # whose best placement is the twin's; with the most significant shifts too, a
+    # rival placement refuses it before the mirror is looked at.
+    by_mass = replace(DEFAULT_PARAMS.translation, significant_peaks=0)
     params = replace(DEFAULT_PARAMS, translation=by_mass)
     result = merging.estimate_transform(first, second, params=params)
     assert transform_error(result.matrix, truth, second)[0] > 30.0

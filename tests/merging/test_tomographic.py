@@ -149,9 +149,9 @@ def test_half_turn_twin_from_one_transform(building: np.ndarray, degrees: float)
     _, twin = translation_peaks(first, second, theta, count=3)
     direct, _ = translation_peaks(first, second, theta + np.pi, count=3)
     assert len(twin) == len(direct) == 3
-    for (twin_matrix, twin_score), (matrix, score) in zip(twin, direct, strict=True):
-        assert np.allclose(twin_matrix, matrix, atol=1e-9)
-        assert twin_score == pytest.approx(score, abs=1e-5)
+    for twin_peak, peak in zip(twin, direct, strict=True):
+        assert np.allclose(twin_peak.matrix, peak.matrix, atol=1e-9)
+        assert twin_peak.mass == pytest.approx(peak.mass, abs=1e-5)
 
 
 @pytest.mark.parametrize(("row", "col"), [(5, 7), (0, 0), (1, 18), (9, 19), (4, 2)])
