@@ -302,6 +302,19 @@ class ConfidenceParams:
         together) at which the shared-space factor reaches 1 - 1/e: about a
         square metre seen by both robots at 0.05 m. Maps laid side by side
         along one wall share none.
+    pin_cells : tuple of float
+        Distances (cells RMS over map 2's walls) by which
+        :func:`merging.pinning.pinning` moves a placement whose constraint
+        strength is weak, to see what moving it costs: the accuracy a merge
+        is asked for (2 cells, ``scripts/bench_merge.py``) and twice that.
+    pin_scale : float
+        Net evidence lost by the cheapest of those moves (cells, both
+        directions together: agreeing walls lost plus ``conflict_weight``
+        times conflicts gained) at which the constraint factor reaches
+        1 - 1/e when the curvature alone would give less: about a metre of
+        cross wall at 0.05 m seen in both maps, as a door or corner holding
+        a corridor does. A corridor with nothing across it loses nothing,
+        and a placement off the truth gains by moving towards it.
     accept : float
         Confidence at or above which a result is accepted. Set on 4200
         low-overlap window pairs of four real maps (fourteen seeds of the
@@ -323,6 +336,8 @@ class ConfidenceParams:
     mirror_margin: float = 0.25
     strength_scale: float = 10.0
     shared_space_scale: float = 1000.0
+    pin_cells: tuple[float, ...] = (2.0, 4.0)
+    pin_scale: float = 40.0
     accept: float = 0.6
 
     def __post_init__(self) -> None:
@@ -334,6 +349,8 @@ class ConfidenceParams:
                 "distinct_width",
                 "strength_scale",
                 "shared_space_scale",
+                "pin_cells",
+                "pin_scale",
             ),
             fractions=("accept",),
         )

@@ -35,7 +35,8 @@ from numpy.typing import NDArray
 
 from merging.mirror import MirrorCandidates, mirror_share
 from merging.params import TomographicParams
-from merging.refine import SmoothedMap, constraint_strength
+from merging.pinning import pinning
+from merging.refine import SmoothedMap, constraint_strength, turning_strength
 from merging.robust import (
     open_cells,
     open_consistency,
@@ -48,6 +49,11 @@ from merging.verify import PreparedMap, Verification, confidence_factors, verify
 
 CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
 """Names of the five factors of :func:`merging.verify.confidence`, in its order."""
+
+PIN_WHEN_CONSTRAINT_BELOW = 0.9
+"""The curvature's constraint factor below which the verdict also measures what moving
+the placement costs (:func:`merging.pinning.pinning`): above it the curvature alone
+lets the other factors decide, and the moves are not worth their milliseconds."""
 
 MirrorSearch = Callable[[], MirrorCandidates]
 """Finds the placements of map 2's overlap part, mirrored, on map 1's (for the placement
@@ -129,6 +135,21 @@ def judge(
         factors = confidence_factors(
             check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
         )
+    pinned: tuple[float, float] | None = None
+    if np.prod(factors) < params.confidence.accept and factors[3] < PIN_WHEN_CONSTRAINT_BELOW:
+        # A weak curvature: see what sliding the placement a little would cost,
+        # and how firmly its turn alone is held.
+        slide = pinning(first, second, best, params=params.confidence, verify_params=params.verify)
+        turn = turning_strength(smoothed, second, best, local=True, params=params.gauss_newton)
+        pinned = (slide, turn)
+        factors = confidence_factors(
+            check,
+            other,
+            strength=strength,
+            params=params.confidence,
+            fit_quality=fit_quality,
+            pinned=pinned,
+        )
     close = float(np.prod(factors))
     twins = _Twins(mirror)
     evidence: dict[str, float] = {
@@ -141,6 +162,8 @@ def judge(
         "strength": strength,
         "close_confidence": close,
     }
+    if pinned is not None:
+        evidence["slide_cost_cells"], evidence["turning_strength"] = pinned
     evidence.update(
         {f"close_{name}": value for name, value in zip(CLOSE_FACTORS, factors, strict=True)}
     )
