@@ -393,7 +393,7 @@ def _judged_first(
     runners_up = _runners_up(
         pool, maps.second.points, (params.distinct_cells, params.robust.distinct_cells)
     )
-    return _judged(maps, pool[0][1], runners_up, hypotheses, timings)
+    return _judged(maps, pool[0][1], runners_up, hypotheses, timings, compromise=True)
 
 
 def _close_alternative(maps: _Maps, pool: list[Candidate]) -> int | None:
@@ -502,13 +502,17 @@ def _judged(
     timings: dict[str, float],
     *,
     mirror_check: bool = True,
+    compromise: bool = False,
 ) -> MergeResult:
     """The result for ``best``: its confidence, the verdict and, when refused, why.
 
     ``runners_up`` are the best placements different from ``best`` for the
     close fit and for the robust evidence (:func:`merging.verdict.judge`).
     With ``mirror_check``, the verdict searches for the mirror image of the
-    evidence, for a placement it would otherwise accept.
+    evidence, for a placement it would otherwise accept. With
+    ``compromise``, an accepted placement of maps that bend against each
+    other is moved to the best rigid compromise over the whole overlap
+    (:func:`_compromise`).
     """
     clock = time.perf_counter()
     mirror = _mirror_search(maps, best, timings) if mirror_check else None
@@ -523,6 +527,10 @@ def _judged(
         mirror,
         far_runner_up=far_runner_up,
     )
+    evidence = verdict.evidence
+    if compromise and verdict.accepted and verdict.bent:
+        best, moved = _compromise(maps, best)
+        evidence = {**evidence, "compromise_moved_cells": moved}
     timings["judge"] = time.perf_counter() - clock - timings.get("mirror", 0.0)
     return MergeResult(
         matrix=best,
@@ -532,8 +540,38 @@ def _judged(
         hypotheses=hypotheses,
         timings=timings,
         reason=verdict.reason,
-        evidence=verdict.evidence,
+        evidence=evidence,
     )
+
+
+def _compromise(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+    """The best rigid compromise over the whole overlap of maps that bend, and how far it
+    moved map 2's walls (cells RMS).
+
+    The refinement's last fields, a cell wide or less, hold map 2 where one
+    part of the overlap fits exactly, and the parts that bend away pull on
+    nothing. Fields as wide as the bending (``TomographicParams.compromise``)
+    let every part of the overlap pull, and the placement settles where the
+    whole overlap fits best: the rigid transform a least-squares fit of
+    corresponding points over the whole floor would give. A compromise
+    farther than the bending (``RobustParams.distinct_cells``) is another
+    answer, not the same one bent; then ``best`` is kept.
+    """
+    stage = maps.params.compromise
+    moved = refine_transform(
+        maps.smoothed,
+        maps.second,
+        best,
+        sigmas=stage.sigmas,
+        iterations=stage.iterations,
+        local=stage.local,
+        max_points=stage.points,
+        params=maps.params.gauss_newton,
+    )
+    distance = _rms_between(moved, best, maps.second.points)
+    if distance > maps.params.robust.distinct_cells:
+        return best, 0.0
+    return moved, distance
 
 
 def refine_from(

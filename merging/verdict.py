@@ -82,12 +82,17 @@ class Verdict:
     evidence : dict
         The measures and factors behind the verdict (see
         :attr:`merging.result.MergeResult.evidence`).
+    bent : bool
+        Whether the maps bend against each other where they overlap: the
+        verdict rests on walls met within a few cells (the close fit's
+        tolerant quality, or the robust evidence), not within one.
     """
 
     confidence: float
     accepted: bool
     reason: str
     evidence: dict[str, float]
+    bent: bool = False
 
 
 def judge(
@@ -218,7 +223,8 @@ def judge(
         reason = MIRROR_REASON
     else:
         reason = refusal_reason(factors, robust_scores, evidence)
-    return Verdict(value, accepted, reason, evidence)
+    bent = robust > close or fit_tolerance is not None
+    return Verdict(value, accepted, reason, evidence, bent)
 
 
 class _Twins:
