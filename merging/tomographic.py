@@ -558,8 +558,17 @@ def _compromise(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.floa
     answer, not the same one bent; then ``best`` is kept.
     """
     stage = maps.params.compromise
+    # Full-resolution fields: a field computed on the half-resolution grid is off by
+    # up to a few cells at these widths, which the search's finer fields correct
+    # afterwards and this refinement, the last, would not.
+    full = SmoothedMap(
+        maps.first.walls,
+        maps.first.shape,
+        downsample_from_sigma=2.0 * max(stage.sigmas),
+        whole_field_share=maps.params.gauss_newton.whole_field_share,
+    )
     moved = refine_transform(
-        maps.smoothed,
+        full,
         maps.second,
         best,
         sigmas=stage.sigmas,
