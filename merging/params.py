@@ -142,7 +142,8 @@ class TranslationParams:
         (4 % by mass). They join the screening; the refinement's first
         admissions by correlation still take the strongest by mass (their
         score is the mass they collect), so maps that overlap much are
-        searched as before.
+        searched as before. Two, not three: on those pairs the third added
+        no accepted right answer and a twentieth of the time.
     overlap_power : float
         Significance is the collected mass divided by the number of map 2's
         wall blocks landing on map 1's observed blocks to this power. One
@@ -160,7 +161,7 @@ class TranslationParams:
     free_penalty: float = 0.5
     peak_suppression: int = 2
     peaks: int = 3
-    significant_peaks: int = 3
+    significant_peaks: int = 2
     overlap_power: float = 0.5
     min_overlap_blocks: float = 4.0
 
@@ -315,6 +316,18 @@ class ConfidenceParams:
         cross wall at 0.05 m seen in both maps, as a door or corner holding
         a corridor does. A corridor with nothing across it loses nothing,
         and a placement off the truth gains by moving towards it.
+    turn_scale : float
+        Strength of the turn alone (:func:`merging.refine.turning_strength`,
+        matching cells per cell² of map 2's RMS motion) at which the
+        constraint factor reaches 1 - 1/e when the curvature alone would
+        give less. Larger than ``strength_scale``: a small overlap turns
+        about itself, so the half-cell errors of rasterising a turned map
+        there reach map 2's far walls multiplied by its lever arm (map 2's
+        radius over the overlap's, 3-16 for right placements of low-overlap
+        windows), and the curvature of a flat optimum does not show them.
+        Window pairs sharing 3-15 % whose placements were pinned by a turn
+        of 11 were accepted 2-4 cells off at 10 (seeds 1001-3003 of
+        ``scripts/bench_real_maps.py low-overlap``).
     accept : float
         Confidence at or above which a result is accepted. Set on 4200
         low-overlap window pairs of four real maps (fourteen seeds of the
@@ -338,6 +351,7 @@ class ConfidenceParams:
     shared_space_scale: float = 1000.0
     pin_cells: tuple[float, ...] = (2.0, 4.0)
     pin_scale: float = 40.0
+    turn_scale: float = 15.0
     accept: float = 0.6
 
     def __post_init__(self) -> None:
@@ -351,6 +365,7 @@ class ConfidenceParams:
                 "shared_space_scale",
                 "pin_cells",
                 "pin_scale",
+                "turn_scale",
             ),
             fractions=("accept",),
         )

@@ -84,8 +84,8 @@ class Verdict:
         :attr:`merging.result.MergeResult.evidence`).
     bent : bool
         Whether the maps bend against each other where they overlap: the
-        verdict rests on walls met within a few cells (the close fit's
-        tolerant quality, or the robust evidence), not within one.
+        robust evidence (a large overlap whose walls meet within a few
+        cells) vouches for the placement, and more than the close fit does.
     """
 
     confidence: float
@@ -223,7 +223,7 @@ def judge(
         reason = MIRROR_REASON
     else:
         reason = refusal_reason(factors, robust_scores, evidence)
-    bent = robust > close or fit_tolerance is not None
+    bent = robust >= accept and robust > close
     return Verdict(value, accepted, reason, evidence, bent)
 
 

@@ -405,7 +405,7 @@ def confidence_factors(
     sliding the placement a little (:func:`merging.pinning.pinning`) and the
     strength holding its turn (:func:`merging.refine.turning_strength`); the
     constraint factor is then the larger of the curvature's and the smaller
-    of ``1 - exp(-slide / pin_scale)`` and ``1 - exp(-turn / strength_scale)``.
+    of ``1 - exp(-slide / pin_scale)`` and ``1 - exp(-turn / turn_scale)``.
     """
     quality = best.quality if fit_quality is None else fit_quality
     fit = expit((quality - params.fit_centre) / params.fit_width)
@@ -421,7 +421,7 @@ def confidence_factors(
         slide, turn = pinned
         held = min(
             1.0 - np.exp(-max(slide, 0.0) / params.pin_scale),
-            1.0 - np.exp(-max(turn, 0.0) / params.strength_scale),
+            1.0 - np.exp(-max(turn, 0.0) / params.turn_scale),
         )
         constrained = max(constrained, held)
     shared = 1.0 - np.exp(-best.shared_space / params.shared_space_scale)
