@@ -5,7 +5,11 @@
   docstring);
 * :mod:`envs.vector`: K of them at once (SuperSuit's vector envs, Gymnasium's
   ``AsyncVectorEnv``), and :mod:`envs.sb3`, a Stable-Baselines3 ``VecEnv``;
-* :mod:`envs.baselines`: random, constant and frontier agents to compare a
+* :mod:`envs.rllib`: RLlib's multi-agent view, a CNN module and PPO set up
+  for it (the ``rllib`` extra);
+* :mod:`envs.learning_metrics`: the finished episodes' figures that
+  trainers log;
+* :mod:`envs.scripted_agents`: random, constant and frontier agents to compare a
   learner with.
 
 Importing this package registers the Gymnasium single-agent view

@@ -23,14 +23,14 @@ the one generator every draw comes from; ``reset()`` continues with it.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv
+from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv, parallel_env
 
 ENV_ID = "tomosim/MultiRobotExploration-v0"
 """The Gymnasium id this view is registered under (in :mod:`envs`)."""
@@ -50,7 +50,7 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}  # noqa: RUF012  # Gymnasium API
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        self.team = MultiRobotExplorationEnv(render_mode=render_mode, **kwargs)
+        self.team: MultiRobotExplorationEnv = parallel_env(render_mode=render_mode, **kwargs)
         self.render_mode = render_mode
         count = len(self.team.possible_agents)
         single = self.team.observation_space(self.team.possible_agents[0])
@@ -61,7 +61,7 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
             stacked[key] = spaces.Box(
                 np.broadcast_to(box.low, (count, *box.shape)),
                 np.broadcast_to(box.high, (count, *box.shape)),
-                dtype=box.dtype,
+                dtype=cast(Any, box.dtype),  # Gymnasium 1.2 types it as a scalar type
             )
         self.observation_space = spaces.Dict(stacked)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(count, 2), dtype=np.float32)
@@ -98,8 +98,9 @@ class CentralisedExplorationEnv(gymnasium.Env[dict[str, Any], NDArray[np.float32
         reward = float(sum(rewards.values()))
         return self._stack(observations), reward, terminated, truncated, {"agents": infos}
 
-    def render(self) -> NDArray[np.uint8] | None:
-        """The frame of the parallel environment's ``render``."""
+    def render(self) -> Any:  # Gymnasium 1.2 types Env.render with a type variable
+        """The frame of the parallel environment's ``render``: a ``(rows, cols, 3)`` uint8
+        array, or None."""
         return self.team.render()
 
     def close(self) -> None:

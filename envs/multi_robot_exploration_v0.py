@@ -3,9 +3,9 @@
 Lidar-equipped differential-drive robots (pymunk physics, 360-beam lidar,
 drifting odometry) start at random free poses with random headings, unknown
 to each other, and each builds an occupancy grid in its own start frame.
-Every ``merge_interval`` steps all grids are merged (tomographic method by
-default); once a robot's map is linked to teammates' by confirmed merges,
-its observation shows the team's map in its own frame.
+Every ``team.merge_interval`` steps (50 by default) all grids are merged
+(tomographic method by default); once a robot's map is linked to teammates'
+by confirmed merges, its observation shows the team's map in its own frame.
 
 =====================  =============================================================
 Import                 ``from envs import multi_robot_exploration_v0``
@@ -40,7 +40,8 @@ pose   (3,)          float32  pose estimate (x, y, theta) in the robot's own map
 The *best map* of a robot is its own grid, with the cells it has not observed
 filled in from the grids of the teammates its map is linked to through
 confirmed merges, carried into its frame by the merge transforms
-(:mod:`tomosim.team.sharing`; teammates' grids are refreshed every 10 steps).
+(:mod:`tomosim.team.sharing`; teammates' grids are refreshed every
+``team.share_interval`` steps, 10 by default).
 A merge the merger does not accept is never used; one it accepts is used
 once the next round confirms it (:class:`tomosim.team.TeamMerger`).
 
@@ -94,7 +95,14 @@ robot 0's (``estimate``,
 At the last step of an episode each agent's info also holds ``episode``: ``r``
 (the agent's return), ``l`` (steps), its ``coverage``, ``team_coverage``,
 ``terminated``, ``truncated``, ``world`` (its name) and every agent's
-``returns`` (``r`` and ``l`` as in Stable-Baselines3's ``Monitor``). No reset
+``returns`` (``r`` and ``l`` as in Stable-Baselines3's ``Monitor``), and the
+figures exploration papers report, named as in ``tomosim sweep``'s rows
+(:mod:`tomosim.episode.exploration_tracker`): ``steps_to_target`` (the step at which the
+team reached ``coverage_target``, None if it did not), ``path_length_m`` (metres
+the robots' true positions travelled, all robots together), ``overlap_rate``
+(the sum of the robots' own coverages over the team's, less one),
+``merge_rounds``, and ``pairs_accepted`` and ``pairs_confirmed`` (pair estimates
+the merger accepted, and of those the confirmed ones, summed over the rounds). No reset
 info has this key, so a vector environment that resets on its own and merges
 the reset's infos into the last step's (SuperSuit's) keeps it; the same
 dictionary, without ``r`` and ``coverage``, stays in ``env.last_episode``
@@ -102,17 +110,41 @@ until the next episode ends.
 
 Arguments
 ---------
-``world`` (generated floor plan seed, map_server YAML path or ``World``; default
-floor plan 0), ``world_size`` (width, height of a generated floor plan, metres),
-``robots`` (3), ``max_cycles`` (1500), ``merge`` (True), ``merge_interval`` (50),
-``method`` ("tomographic"), ``coverage_target`` (0.9), ``crop_size`` (64),
-``crop_resolution`` (0.1 m), ``simulation`` (a ``tomosim.simulation.SimulationConfig``),
-``render_mode`` (None, "rgb_array" or "human"; below), ``floors`` (None, or floor
-plan seeds: each reset generates a floor drawn from them, of ``world_size``; use
-``TRAINING_FLOORS`` to learn and ``HELD_OUT_FLOORS``, disjoint from them, to
-evaluate), ``observation_format`` ("metric", the table above, or "normalised",
-for learners: the map as a ``uint8`` image of channels free, occupied, unknown,
-scan and pose scaled to ``[0, 1]`` and ``[-1, 1]``; see :mod:`envs.observations`).
+
+======================  ==========================================================
+argument                meaning (default)
+======================  ==========================================================
+``world``               generated floor plan seed, map_server YAML path or
+                        ``World`` (floor plan 0)
+``world_size``          width, height of a generated floor plan in metres (30, 20)
+``robots``              number of robots (3)
+``max_cycles``          steps before truncation (1500)
+``team``                a ``tomosim.team.TeamConfig``: every setting of the team,
+                        among them ``merge`` (True), ``method``
+                        ("tomographic"; "oracle": the true start poses),
+                        ``merge_interval`` (50 steps), ``confirmations`` (2),
+                        ``share_interval`` (10 steps), ``tracking`` (True),
+                        ``comms`` (unlimited range) and ``simulation`` (robots,
+                        lidar, odometry, mapping); default ``TeamConfig()``
+``coverage_target``     team coverage that terminates the episode (0.9)
+``crop_size``           side of the ``map`` observation in cells (64)
+``crop_resolution``     metres per cell of the ``map`` observation (0.1)
+``render_mode``         None, "rgb_array" or "human" (None; below)
+``floors``              None, or floor plan seeds: each reset generates a floor
+                        drawn from them, of ``world_size``; use
+                        ``TRAINING_FLOORS`` to learn and ``HELD_OUT_FLOORS``,
+                        disjoint from them, to evaluate (None)
+``observation_format``  "metric", the table above, or "normalised", for
+                        learners: the map as a ``uint8`` image of channels
+                        free, occupied, unknown, scan and pose scaled to
+                        ``[0, 1]`` and ``[-1, 1]``; see :mod:`envs.observations`
+                        ("metric")
+======================  ==========================================================
+
+For example ``parallel_env(robots=4, team=TeamConfig(merge_interval=100,
+comms=CommsConfig(10.0)))``. A team setting given on its own
+(``parallel_env(merge_interval=100)``) is refused with the ``team=`` to write
+instead.
 
 Rendering
 ---------
@@ -135,13 +167,17 @@ Version history
 ---------------
 * v0: initial version. Later additions left its defaults (spaces, dynamics,
   rewards) as they were and so kept the name: ``render_mode="human"``, the
-  options ``floors`` and ``observation_format``, and the ``episode`` info of the
-  last step.
+  options ``floors`` and ``observation_format``, the ``episode`` info of the
+  last step and its exploration figures (``steps_to_target`` to
+  ``pairs_confirmed``), and the ``team`` argument, which took in the arguments
+  ``merge``, ``merge_interval``, ``method`` and ``simulation`` (with the same
+  defaults) and gave the environment the team's other settings.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -159,18 +195,18 @@ from envs.observations import (
     OBSERVATION_FORMATS,
     action_space,
     command,
-    normalise,
+    normalise_team,
     normalised_observation_space,
     observation_space,
-    observe,
+    observe_team,
     pose_bound,
 )
 from envs.rendering import HumanWindow, render_frame
-from merging.api import DEFAULT_METHOD
-from tomosim.episode import load_world
+from merging.validators import SettingTypeError, one_of, real_number, whole_number
+from tomosim.episode import DEFAULT_COVERAGE_TARGET, DEFAULT_ROBOTS, DEFAULT_WORLD_SEED, load_world
+from tomosim.episode.exploration_tracker import ExplorationTracker
 from tomosim.kernels.jit import interrupts_unwrapped
-from tomosim.simulation import SimulationConfig
-from tomosim.team import TeamConfig, TeamSession, robot_name
+from tomosim.team import RoundQuality, TeamConfig, TeamSession, robot_name
 from tomosim.worlds import World
 
 TRAINING_FLOORS = range(1000, 1_000_000)
@@ -180,6 +216,8 @@ HELD_OUT_FLOORS = range(0, 1000)
 world (floor 0) is one of them."""
 RESOLUTION_TOLERANCE = 1e-9
 """Relative slack when checking that the crop resolution is a whole number of map cells."""
+TEAM_SETTINGS = frozenset(f.name for f in dataclasses.fields(TeamConfig))
+"""Names of the team's settings, which the environment takes in one ``team`` argument."""
 
 LOG = logging.getLogger(__name__)
 """Says when an episode ends as it starts (the team already knows enough)."""
@@ -188,20 +226,6 @@ LOG = logging.getLogger(__name__)
 def agent_name(index: int) -> str:
     """The agent id of robot ``index``: ``robot_0``, ``robot_1``, ..."""
     return f"robot_{index}"
-
-
-def _whole(value: object) -> bool:
-    """Whether ``value`` is a whole number (an int, not a bool)."""
-    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
-
-
-def _real(value: object) -> bool:
-    """Whether ``value`` is a finite number (not a bool)."""
-    return (
-        isinstance(value, int | float | np.integer | np.floating)
-        and not isinstance(value, bool | np.bool_)
-        and math.isfinite(value)
-    )
 
 
 class MultiRobotExplorationEnv(ParallelEnv):
@@ -216,18 +240,15 @@ class MultiRobotExplorationEnv(ParallelEnv):
 
     def __init__(
         self,
-        world: int | str | Path | World = 0,
+        world: int | str | Path | World = DEFAULT_WORLD_SEED,
         *,
         world_size: tuple[float, float] | None = None,
-        robots: int = 3,
+        robots: int = DEFAULT_ROBOTS,
         max_cycles: int = 1500,
-        merge: bool = True,
-        merge_interval: int = 50,
-        method: str = DEFAULT_METHOD,
-        coverage_target: float = 0.9,
+        team: TeamConfig | None = None,
+        coverage_target: float = DEFAULT_COVERAGE_TARGET,
         crop_size: int = 64,
         crop_resolution: float = 0.1,
-        simulation: SimulationConfig | None = None,
         render_mode: str | None = None,
         floors: Sequence[int] | None = None,
         observation_format: str = OBSERVATION_FORMATS[0],
@@ -237,29 +258,18 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
-        if not (_whole(robots) and robots >= 1):
-            raise ValueError(f"robots must be a whole number >= 1, got {robots!r}")
-        if not (_whole(max_cycles) and max_cycles >= 1):
-            raise ValueError(f"max_cycles must be a whole number >= 1, got {max_cycles!r}")
-        if not (_real(coverage_target) and 0.0 < coverage_target <= 1.0):
-            raise ValueError(f"coverage_target must be a number in (0, 1], got {coverage_target!r}")
-        if not isinstance(merge, bool | np.bool_):
-            raise ValueError(f"merge must be True or False, got {merge!r}")
-        if not (_real(crop_resolution) and crop_resolution > 0):
-            raise ValueError(
-                f"crop_resolution must be a positive number of metres, got {crop_resolution!r}"
+        whole_number(robots, "robots", minimum=1)
+        whole_number(max_cycles, "max_cycles", minimum=1, unit="steps")
+        real_number(coverage_target, "coverage_target", low=0.0, high=1.0, low_open=True)
+        real_number(crop_resolution, "crop_resolution", low=0.0, low_open=True, unit="metres")
+        if team is not None and not isinstance(team, TeamConfig):
+            raise SettingTypeError(
+                f"team must be a tomosim.team.TeamConfig, got {type(team).__name__}"
             )
-        if simulation is not None and not isinstance(simulation, SimulationConfig):
-            raise ValueError(
-                f"simulation must be a SimulationConfig, got {type(simulation).__name__}"
-            )
-        if not (_whole(crop_size) and crop_size >= 2 and crop_size % 2 == 0):
+        whole_number(crop_size, "crop_size", minimum=2, unit="cells")
+        if crop_size % 2:
             raise ValueError(f"crop_size must be an even number of cells >= 2, got {crop_size!r}")
-        if observation_format not in OBSERVATION_FORMATS:
-            raise ValueError(
-                f"observation_format must be one of {OBSERVATION_FORMATS}, "
-                f"got {observation_format!r}"
-            )
+        one_of(observation_format, OBSERVATION_FORMATS, what="observation_format")
         generated = isinstance(world, int | np.integer) or (
             isinstance(world, str) and world.strip().isdigit()
         )
@@ -269,24 +279,10 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 "own size: drop world_size"
             )
         if floors is not None:
-            if isinstance(world, World) or world != 0:
+            if isinstance(world, World) or world != DEFAULT_WORLD_SEED:
                 raise ValueError("give either world or floors, not both")
-            if (
-                isinstance(floors, str)
-                or not isinstance(floors, Sequence)
-                or len(floors) == 0
-                or not all(_whole(f) and f >= 0 for f in floors)
-            ):
-                raise ValueError(
-                    f"floors must be non-negative floor plan seeds, got {floors!r}; "
-                    "e.g. TRAINING_FLOORS or HELD_OUT_FLOORS"
-                )
-        self.team_config = TeamConfig(
-            merge=merge,
-            method=method,
-            merge_interval=merge_interval,
-            simulation=simulation if simulation is not None else SimulationConfig(),
-        )
+            _check_floors(floors)
+        self.team_config = team if team is not None else TeamConfig()
         resolution = self.team_config.simulation.mapping.resolution
         pool = round(crop_resolution / resolution)
         if pool < 1 or abs(pool * resolution - crop_resolution) > RESOLUTION_TOLERANCE * pool:
@@ -328,6 +324,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self._merge_source: Any = None
         self._merge_info: dict[str, Any] = {}
         self._returns = np.zeros(len(self.possible_agents))
+        self._tracker: ExplorationTracker | None = None
+        self._pair_counts = np.zeros(3, dtype=int)  # merge rounds, accepted, confirmed
         self.window: HumanWindow | None = None
         if render_mode == "human":
             self.window = HumanWindow(self.metadata["render_fps"], title=self.metadata["name"])
@@ -353,8 +351,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
         ``options`` are accepted for the API's sake and not used.
         """
         if seed is not None:
-            if isinstance(seed, bool) or not (isinstance(seed, (int, np.integer)) and seed >= 0):
-                raise ValueError(f"seed must be a whole number >= 0 or None, got {seed!r}")
+            whole_number(seed, "seed", minimum=0)
             self.np_random = np.random.default_rng(seed)
         elif self.np_random is None:
             self.np_random = np.random.default_rng()
@@ -373,6 +370,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
             )
             self.agents = list(self.possible_agents)
+            self._tracker = ExplorationTracker(self.session)
+            self._pair_counts[:] = 0
             start = self.session.coverage.fraction
             if start >= self.coverage_target and not self._warned_done_at_start:
                 self._warned_done_at_start = True
@@ -418,7 +417,8 @@ class MultiRobotExplorationEnv(ParallelEnv):
         with interrupts_unwrapped():  # a Ctrl-C inside a kernel reaches the caller as one
             merge = session.step(commands)
             observations = self._observations()
-        rewards = {agent: float(session.rewards[k]) for k, agent in enumerate(self.agents)}
+        self._follow(merge)
+        rewards = dict(zip(self.agents, session.rewards.tolist(), strict=True))
         done = session.coverage.fraction >= self.coverage_target
         cut = session.steps >= self.max_cycles
         terminations = dict.fromkeys(self.agents, bool(done))
@@ -432,11 +432,20 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
+    def _follow(self, merge: RoundQuality | None) -> None:
+        """Take in a step's path lengths and coverages, and its merge round if one ran."""
+        assert self._tracker is not None and self.session is not None  # start() made them
+        self._tracker.update(self.session)
+        if merge is not None:
+            accepted = merge.accepted
+            self._pair_counts += (1, len(accepted), sum(p.confirmed for p in accepted))
+
     def _end_episode(self, infos: dict[str, dict[str, Any]], *, terminated: bool) -> None:
         """Keep the episode's final figures (``last_episode``, ``infos[a]["episode"]``)."""
-        session = self.session
-        assert session is not None  # step() checked it
+        session, tracker = self.session, self._tracker
+        assert session is not None and tracker is not None  # step() checked them
         returns = {a: float(r) for a, r in zip(self.possible_agents, self._returns, strict=True)}
+        rounds, accepted, confirmed = (int(n) for n in self._pair_counts)
         summary = {
             "l": session.steps,
             "team_coverage": session.coverage.fraction,
@@ -444,6 +453,14 @@ class MultiRobotExplorationEnv(ParallelEnv):
             "truncated": not terminated,
             "world": self.world.name,
             "returns": returns,
+            "steps_to_target": next(
+                (s for s, c in enumerate(tracker.team_curve) if c >= self.coverage_target), None
+            ),
+            "path_length_m": tracker.last.path_length,
+            "overlap_rate": tracker.last.overlap_rate,
+            "merge_rounds": rounds,
+            "pairs_accepted": accepted,
+            "pairs_confirmed": confirmed,
         }
         self.last_episode = summary
         for k, agent in enumerate(self.possible_agents):
@@ -455,18 +472,25 @@ class MultiRobotExplorationEnv(ParallelEnv):
             }
 
     def _observations(self) -> dict[str, dict[str, NDArray[Any]]]:
+        """Every live agent's observation: views of one new array per key (a row each)."""
         assert self.session is not None  # reset() made it
-        observations = {
-            agent: observe(self.session, k, size=self.crop_size, pool=self.pool, bound=self._bound)
+        scans, maps, poses = observe_team(
+            self.session, size=self.crop_size, pool=self.pool, bound=self._bound
+        )
+        if self.observation_format == "normalised":
+            scans, images, poses = normalise_team(
+                scans, maps, poses, bound=self._bound, max_range=self._max_range
+            )
+            return {
+                agent: {"scan": scans[k], "map": images[k], "pose": poses[k]}
+                for k, agent in enumerate(self.possible_agents)
+                if agent in self.agents
+            }
+        return {
+            agent: {"scan": scans[k], "map": maps[k], "pose": poses[k]}
             for k, agent in enumerate(self.possible_agents)
             if agent in self.agents
         }
-        if self.observation_format == "normalised":
-            return {
-                agent: normalise(obs, bound=self._bound, max_range=self._max_range)
-                for agent, obs in observations.items()
-            }
-        return observations
 
     def _infos(self, *, merged_now: bool) -> dict[str, dict[str, Any]]:
         session = self.session
@@ -479,15 +503,17 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 if not math.isfinite(pair["matching_index"]):
                     pair["matching_index"] = None
         merge_info = _copy_merge_info(self._merge_info)
+        steps, coverage, names = session.steps, session.coverage, self.possible_agents
+        team_coverage = coverage.fraction
         infos = {}
-        for k, agent in enumerate(self.possible_agents):
+        for k, agent in enumerate(names):
             if agent not in self.agents:
                 continue
             infos[agent] = {
-                "step": session.steps,
-                "team_coverage": session.coverage.fraction,
-                "coverage": session.coverage.robot_fraction(k),
-                "teammates": [agent_name(t) for t in session.shared.teammates(k)],
+                "step": steps,
+                "team_coverage": team_coverage,
+                "coverage": coverage.robot_fraction(k),
+                "teammates": [names[t] for t in session.shared.teammates(k)],
                 "merged_now": merged_now,
                 "merge": merge_info,
             }
@@ -514,6 +540,21 @@ class MultiRobotExplorationEnv(ParallelEnv):
             self.window.close()
 
 
+def _check_floors(floors: object) -> None:
+    """Raise naming ``floors`` unless it is a non-empty sequence of floor plan seeds."""
+    advice = "e.g. TRAINING_FLOORS or HELD_OUT_FLOORS"
+    if isinstance(floors, str) or not isinstance(floors, Sequence) or len(floors) == 0:
+        raise ValueError(f"floors must be non-negative floor plan seeds, got {floors!r}; {advice}")
+    # A range holds whole numbers between its ends: its ends say it all, where checking
+    # each of TRAINING_FLOORS' million seeds would take a while.
+    seeds = (floors[0], floors[-1]) if isinstance(floors, range) else floors
+    for k, seed in enumerate(seeds):
+        try:
+            whole_number(seed, f"floors[{k}]", minimum=0)
+        except ValueError as error:
+            raise type(error)(f"{error}; floors are floor plan seeds, {advice}") from None
+
+
 def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:
     """A copy of a round's info dictionary down to its mutable parts (tuples are shared)."""
     if not info:
@@ -527,6 +568,13 @@ def _copy_merge_info(info: dict[str, Any]) -> dict[str, Any]:
 
 def parallel_env(**kwargs: Any) -> MultiRobotExplorationEnv:
     """The native parallel environment (arguments as in the module docstring)."""
+    loose = sorted(TEAM_SETTINGS & set(kwargs))
+    if loose:
+        given = ", ".join(f"{name}={kwargs[name]!r}" for name in loose)
+        raise TypeError(
+            f"{', '.join(loose)} {'is a team setting' if len(loose) == 1 else 'are team settings'}"
+            f": pass team=tomosim.team.TeamConfig({given})"
+        )
     return MultiRobotExplorationEnv(**kwargs)
 
 

@@ -137,8 +137,65 @@ def observe(
     }
 
 
+def observe_team(
+    session: TeamSession, *, size: int, pool: int, bound: float
+) -> tuple[NDArray[np.float32], NDArray[np.int8], NDArray[np.float32]]:
+    """Every robot's observation now, as arrays with one row a robot (new every call).
+
+    Row ``k`` of each is what :func:`observe` gives robot ``k``.
+
+    Returns
+    -------
+    scans : (N, beams) float32 ndarray
+    maps : (N, size, size) int8 ndarray
+    poses : (N, 3) float32 ndarray
+    """
+    simulation = session.simulation
+    # Returns lie in [0, max_range] already; fmin reads no return (inf) and dropouts (nan)
+    # as max_range.
+    scans = np.fmin(simulation.ranges, simulation.lidar.config.max_range).astype(np.float32)
+    poses = np.array(
+        [
+            (min(max(x, -bound), bound), min(max(y, -bound), bound), theta)
+            for x, y, theta in (odometry.pose.tolist() for odometry in simulation.odometry)
+        ],
+        dtype=np.float32,
+    )
+    maps = np.empty((simulation.count, size, size), dtype=np.int8)
+    for robot in range(simulation.count):
+        maps[robot] = session.best_crop(robot, size=size, pool=pool)
+    return scans, maps, poses
+
+
+def normalise_team(
+    scans: NDArray[np.float32],
+    maps: NDArray[np.int8],
+    poses: NDArray[np.float32],
+    *,
+    bound: float,
+    max_range: float,
+) -> tuple[NDArray[np.float32], NDArray[np.uint8], NDArray[np.float32]]:
+    """:func:`normalise` of every robot's observation from :func:`observe_team`, in rows."""
+    image = np.zeros((len(maps), 3, *maps.shape[1:]), dtype=np.uint8)
+    image[:, 0][(maps >= 0) & (maps <= FREE_THRESHOLD)] = CHANNEL_ON
+    image[:, 1][maps >= OCCUPIED_THRESHOLD] = CHANNEL_ON
+    image[:, 2][maps < 0] = CHANNEL_ON
+    pose = np.array(
+        [
+            [x / bound, y / bound, math.cos(theta), math.sin(theta)]  # as normalise() does
+            for x, y, theta in poses.tolist()
+        ],
+        dtype=np.float32,
+    ).reshape(-1, 4)
+    return (scans / np.float32(max_range)).astype(np.float32), image, pose.clip(-1.0, 1.0)
+
+
 def command(action: object, *, name: str) -> tuple[float, float]:
     """An action as a ``(linear, angular)`` command clipped to ``[-1, 1]``."""
+    if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
+        linear, angular = action.tolist()  # the common case, a sampled action, at once
+        if math.isfinite(linear) and math.isfinite(angular):
+            return (min(max(linear, -1.0), 1.0), min(max(angular, -1.0), 1.0))
     values = np.empty(0)
     try:
         given = np.asarray(action)

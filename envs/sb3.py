@@ -17,6 +17,10 @@ has three gaps this adapter closes (each pinned by a test):
    each finished entry also gets ``final_info``, the final step's figures
    (``episode`` without the per-agent ``returns``).
 
+:class:`ExplorationMetricsCallback` logs the finished episodes' figures
+(:mod:`envs.learning_metrics`) through Stable-Baselines3's logger, and so to
+TensorBoard when the model has a ``tensorboard_log`` folder.
+
 Importing this module needs Stable-Baselines3 (the ``rl`` extra).
 """
 
@@ -27,7 +31,14 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv
+
+from envs.learning_metrics import episode_scalars
+from merging.validators import whole_number
+
+METRICS_PREFIX = "exploration"
+"""The logger's section of the episode figures: ``exploration/team_coverage``, ..."""
 
 
 class SB3VectorEnv(VecEnv):
@@ -42,7 +53,8 @@ class SB3VectorEnv(VecEnv):
     """
 
     def __init__(self, venv: Any, envs: int) -> None:
-        if not (isinstance(envs, int) and envs >= 1 and venv.num_envs % envs == 0):
+        whole_number(envs, "envs", minimum=1)
+        if venv.num_envs % envs:
             raise ValueError(
                 f"envs must be a whole number >= 1 dividing the {venv.num_envs} robot "
                 f"entries, got {envs!r}"
@@ -124,3 +136,34 @@ class SB3VectorEnv(VecEnv):
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         """No entry is wrapped in a Gymnasium wrapper (they are robots, not envs)."""
         return [False] * len(list(self._get_indices(indices)))
+
+
+class ExplorationMetricsCallback(BaseCallback):
+    """Records each finished episode's figures (:func:`envs.learning_metrics.episode_scalars`).
+
+    They go to Stable-Baselines3's logger as ``exploration/<name>`` with
+    ``record_mean``: what it writes at the end of a rollout (to TensorBoard
+    with ``PPO(..., tensorboard_log=DIR)``) is their mean over the episodes
+    that ended in it.
+
+    Parameters
+    ----------
+    robots : int
+        Robots per environment: the entries of one environment share an
+        episode, which is counted once (from its first robot's entry).
+    """
+
+    def __init__(self, robots: int) -> None:
+        if not (isinstance(robots, int) and robots >= 1):
+            raise ValueError(f"robots must be a whole number >= 1, got {robots!r}")
+        super().__init__()
+        self.robots = robots
+
+    def _on_step(self) -> bool:
+        for index, info in enumerate(self.locals["infos"]):
+            episode = info.get("episode")
+            if index % self.robots or episode is None:
+                continue
+            for name, value in episode_scalars(episode).items():
+                self.logger.record_mean(f"{METRICS_PREFIX}/{name}", value)
+        return True

@@ -32,6 +32,7 @@ import gymnasium
 
 from envs.centralised import CentralisedExplorationEnv
 from envs.multi_robot_exploration_v0 import parallel_env
+from merging.validators import whole_number
 
 RL_INSTALL = 'pip install -e ".[rl]"'
 """The command that installs SuperSuit, Stable-Baselines3 and a CPU build of torch."""
@@ -65,10 +66,8 @@ def make_supersuit_vector_env(envs: int, *, processes: int = 0, **kwargs: Any) -
         processes step them. Close it when done; worker processes left open are
         closed when the interpreter exits.
     """
-    if not (isinstance(envs, int) and envs >= 1):
-        raise ValueError(f"envs must be a whole number >= 1, got {envs!r}")
-    if not (isinstance(processes, int) and processes >= 0):
-        raise ValueError(f"processes must be a whole number >= 0, got {processes!r}")
+    whole_number(envs, "envs", minimum=1)
+    whole_number(processes, "processes", minimum=0)
     supersuit = _supersuit()
     robots = supersuit.pettingzoo_env_to_vec_env_v1(parallel_env(**kwargs))
     venv = supersuit.concat_vec_envs_v1(robots, envs, num_cpus=processes, base_class="gymnasium")
@@ -140,6 +139,5 @@ def make_gymnasium_vector_env(envs: int, **kwargs: Any) -> gymnasium.vector.Asyn
     ``reset(seed=s)`` seeds view ``e`` with ``s + e``; an ended episode is
     reset at the next step (Gymnasium's default autoreset).
     """
-    if not (isinstance(envs, int) and envs >= 1):
-        raise ValueError(f"envs must be a whole number >= 1, got {envs!r}")
+    whole_number(envs, "envs", minimum=1)
     return gymnasium.vector.AsyncVectorEnv([lambda: _centralised(kwargs) for _ in range(envs)])

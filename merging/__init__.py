@@ -3,22 +3,33 @@
 ``merging`` is usable on its own: it imports neither the simulator nor the
 environments.
 
+Two maps of one room, the second seen from 7 cells left of and 3 cells below
+the first (grids in the ROS coding: -1 unknown, 0 free, 100 occupied):
+
+>>> import numpy as np
 >>> import merging
->>> result = merging.estimate_transform(map1, map2)  # doctest: +SKIP
->>> result.matrix, result.confidence, result.accepted  # doctest: +SKIP
+>>> room = np.full((100, 140), -1, dtype=np.int8)
+>>> room[10:90, 10:130] = 0                        # free space
+>>> room[[10, 89], 10:130] = room[10:90, [10, 129]] = 100  # outer walls
+>>> room[10:60, 50] = room[40, 50:100] = room[60:90, 95] = 100  # inner walls
+>>> seen = np.full_like(room, -1)
+>>> seen[3:, 7:] = room[:-3, :-7]
+>>> result = merging.estimate_transform(room, seen)
+>>> x, y, theta = merging.matrix_to_pose(result.matrix)  # seen's cells -> room's cells
+>>> round(x), round(y), round(theta, 3), result.accepted
+(-7, -3, 0.0, True)
 """
 
 from merging.api import available_methods, check_method, estimate_transform, register_method
-from merging.fusion import FusedMap, fuse, merge
+from merging.evaluation.metrics import acceptance_index, matching_index, transform_error
 from merging.grid import (
     FREE_THRESHOLD,
     OCCUPIED_THRESHOLD,
     OccupancyGrid,
     validate_cells,
 )
-from merging.linking import Linking, MergeAllResult, link_maps, merge_all
+from merging.linking import FusedMap, Linking, MergeAllResult, fuse, link_maps, merge, merge_all
 from merging.mapio import load_map, save_map
-from merging.metrics import acceptance_index, matching_index, transform_error
 from merging.result import Hypothesis, MergeResult
 from merging.transforms import cells_to_metres, matrix_to_pose, rigid_matrix
 

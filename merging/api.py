@@ -22,13 +22,12 @@ from merging.grid import OccupancyGrid, occupied_mask, validate_cells
 from merging.resample import to_resolution
 from merging.result import MergeResult
 from merging.transforms import cells_to_metres
+from merging.validators import RngLike, as_generator, one_of
 
 DEFAULT_METHOD = "tomographic"
 """The method :func:`estimate_transform` uses unless told otherwise."""
 MIN_OCCUPIED_CELLS = 10
 """Fewer occupied cells than this in either map cannot fix a rigid transform."""
-
-RngLike = np.random.Generator | int | None
 
 
 class MergeMethod(Protocol):
@@ -78,26 +77,7 @@ def check_method(method: object) -> str:
     The one place a method name is checked; every public entry point that
     takes one calls it before doing any work.
     """
-    if not isinstance(method, str) or method not in _METHODS:
-        raise ValueError(
-            f"unknown merging method {method!r}; choose one of: {', '.join(available_methods())}"
-        )
-    return method
-
-
-def as_generator(rng: object, *, name: str = "rng") -> np.random.Generator:
-    """``numpy.random.default_rng(rng)``, or an error that names ``name`` and what it takes.
-
-    Accepts what ``default_rng`` does (None, a non-negative int, a
-    SeedSequence, a BitGenerator or a Generator) except a bool.
-    """
-    takes = f"{name} must be None, a non-negative int, a SeedSequence or a numpy Generator"
-    if isinstance(rng, bool | np.bool_):
-        raise TypeError(f"{takes}, got {rng!r}")
-    try:
-        return np.random.default_rng(rng)  # type: ignore[arg-type]
-    except (TypeError, ValueError) as exc:
-        raise type(exc)(f"{takes}, got {rng!r}") from exc
+    return one_of(method, available_methods(), what="merging method")
 
 
 def estimate_transform(

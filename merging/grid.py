@@ -16,11 +16,12 @@ Conventions (pinned by ``tests/merging/test_grid.py``):
 
 from __future__ import annotations
 
-import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from merging.validators import real_number
 
 UNKNOWN = -1
 """Cell value for an unobserved cell."""
@@ -134,26 +135,19 @@ class OccupancyGrid:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data", validate_cells(self.data, name="data"))
-        resolution = self.resolution
-        if not (
-            isinstance(resolution, numbers.Real)
-            and not isinstance(resolution, bool | np.bool_)
-            and np.isfinite(resolution)
-            and resolution > 0
-        ):
-            raise ValueError(f"resolution must be a positive number of metres, got {resolution!r}")
-        object.__setattr__(self, "resolution", float(resolution))
+        resolution = real_number(
+            self.resolution, "resolution", low=0.0, low_open=True, unit="metres"
+        )
+        object.__setattr__(self, "resolution", resolution)
         origin = self.origin
-        if not (
-            isinstance(origin, tuple | list | np.ndarray)
-            and len(origin) == 3
-            and all(
-                isinstance(v, numbers.Real) and not isinstance(v, bool | np.bool_) for v in origin
-            )
-            and all(np.isfinite(v) for v in origin)
-        ):
-            raise ValueError(f"origin must be three finite numbers (x, y, yaw), got {origin!r}")
-        object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))
+        message = f"origin must be three finite numbers (x, y, yaw), got {origin!r}"
+        if not (isinstance(origin, tuple | list | np.ndarray) and len(origin) == 3):
+            raise ValueError(message)
+        try:
+            values = tuple(real_number(v, "origin") for v in origin)
+        except ValueError:
+            raise ValueError(message) from None
+        object.__setattr__(self, "origin", values)
 
     @classmethod
     def from_bool(

@@ -27,6 +27,7 @@ import yaml
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
+from merging.catalog import find_map
 from merging.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 
 MODES = ("trinary", "scale", "raw")
@@ -97,13 +98,15 @@ def _read_yaml(path: Path) -> object:
         raise ValueError(f"{path} is not valid YAML: {' '.join(str(exc).split())}") from exc
 
 
-def load_map(yaml_path: str | Path) -> OccupancyGrid:
-    """Load a ``map_server`` map.
+def load_map(source: str | Path) -> OccupancyGrid:
+    """Load a ``map_server`` map, by name or from its YAML file.
 
     Parameters
     ----------
-    yaml_path : str or Path
-        The map's YAML file; its ``image`` entry is resolved relative to it.
+    source : str or Path
+        The map's YAML file (its ``image`` entry is resolved relative to it),
+        or the name of a map in the maps path (``"intel"``,
+        ``"halmstad/E5_01"``; :func:`merging.catalog.find_map`).
 
     Returns
     -------
@@ -112,14 +115,15 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     Raises
     ------
     FileNotFoundError
-        If the YAML file or its image does not exist.
+        If the YAML file or its image does not exist, or no folder of the maps
+        path holds a map of that name (the message lists the folders searched).
     ValueError
         If the path is a directory, or the YAML is malformed, lacks a
         required key, is not text (an image passed by mistake), names a file
         that is not an image, is larger than :data:`MAX_YAML_BYTES` or uses
         YAML aliases (refused rather than expanded).
     """
-    path = Path(yaml_path)
+    path = find_map(source)
     meta = _map_meta(path)
     image_path = _image_of(path, meta)
     if not isinstance(meta["origin"], list | tuple):
@@ -178,6 +182,24 @@ def map_image(yaml_path: str | Path) -> Path:
     """
     path = Path(yaml_path)
     return _image_of(path, _map_meta(path))
+
+
+def map_header(path: Path) -> tuple[Path, float]:
+    """The image file a map's YAML names and its resolution, without reading the pixels.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        As :func:`load_map` for a bad YAML file or a missing image.
+    """
+    meta = _map_meta(path)
+    image = _image_of(path, meta)
+    try:
+        resolution = float(meta["resolution"])
+    except (TypeError, ValueError) as exc:
+        value = meta["resolution"]
+        raise ValueError(f"{path}: resolution must be a number, got {value!r}") from exc
+    return image, resolution
 
 
 def _map_meta(path: Path) -> dict[str, Any]:

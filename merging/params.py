@@ -1,4 +1,4 @@
-"""The settings of the default (``"tomographic"``) merger, in one frozen object.
+"""The settings of the default (``"tomographic"``) merger, in one frozen object, and of linking.
 
 Every tuning constant of the default method lives here, grouped by the stage
 that uses it, each with its unit and the reason for its value. Pass a changed
@@ -14,67 +14,97 @@ copy to :func:`merging.estimate_transform`::
 The stage objects are used on their own too: the verification
 (:class:`VerifyParams`) and the confidence (:class:`ConfidenceParams`) are
 shared by every method, so that ``accepted`` means the same for all of them.
+How N grids are linked from their pairwise estimates, whatever the method, is
+set by :class:`LinkingParams` (:func:`merging.link_maps`, ``params=``).
+
+Each class checks its fields by their declared types when made
+(:mod:`merging.validators`): a count must be a whole number, a threshold a
+finite number, a fraction one in ``[0, 1]``.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
+import typing
 from dataclasses import dataclass, field, fields
 from typing import Any
+
+from merging.validators import SettingTypeError, boolean, real_number, whole_number
 
 # The dataclasses below are frozen and slotted; their defaults are the values the
 # benchmarks in scripts/ were run with.
 
 
-def _check_fields(settings: Any, *, positive: tuple[str, ...], fractions: tuple[str, ...]) -> None:
-    """Raise naming the field unless every field of ``settings`` is of its annotated kind.
+_FIELD_TYPES: dict[type, tuple[tuple[str, Any], ...]] = {}
+"""Per settings class, :func:`_field_types`' answer (resolving annotations takes a while)."""
+
+
+def _field_types(kind: type) -> tuple[tuple[str, Any], ...]:
+    """Each field of the settings class ``kind`` with its type, the annotation resolved."""
+    if kind not in _FIELD_TYPES:
+        hints = typing.get_type_hints(kind)
+        _FIELD_TYPES[kind] = tuple((item.name, hints[item.name]) for item in fields(kind))
+    return _FIELD_TYPES[kind]
+
+
+def _check_fields(
+    settings: Any, *, positive: tuple[str, ...] = (), fractions: tuple[str, ...] = ()
+) -> None:
+    """Raise naming the field unless every field of ``settings`` is of its declared type.
 
     Whole numbers (``int``, not bool) are at least 0, and at least 1 when
     ``positive`` names them; numbers (``float``) are finite, and above 0 when
     ``positive`` names them, within ``[0, 1]`` when ``fractions`` does; a
-    tuple of floats holds finite numbers (above 0 when named positive); a
-    stage's settings are an instance of their class. Without it a value of
-    the wrong kind fails deep inside the search, or a threshold above 1
-    refuses every match with a reason about the walls.
+    tuple holds entries of its declared types (as many as it declares, unless
+    it ends in ``...``), numbers checked as a ``float`` field is; a stage's
+    settings are an instance of their class. Without it a value of the wrong
+    kind fails deep inside the search, or a threshold above 1 refuses every
+    match with a reason about the walls.
     """
     owner = type(settings).__name__
-    for item in fields(settings):
-        name, kind, value = item.name, str(item.type), getattr(settings, item.name)
+    for name, kind in _field_types(type(settings)):
         where = f"{owner}.{name}"
-        if kind == "int":
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-                raise TypeError(f"{where} must be a whole number, got {value!r}")
-            if value < (1 if name in positive else 0):
-                least = "1" if name in positive else "0"
-                raise ValueError(f"{where} must be at least {least}, got {value!r}")
-        elif kind == "float" or kind.startswith("tuple[float"):
-            values = value if kind != "float" else (value,)
-            if kind != "float" and not (isinstance(value, tuple) and value):
-                raise TypeError(f"{where} must be a non-empty tuple of numbers, got {value!r}")
-            for entry in values:
-                if isinstance(entry, bool) or not isinstance(entry, numbers.Real):
-                    raise TypeError(f"{where} must hold numbers, got {value!r}")
-                number = float(entry)
-                if not math.isfinite(number) or (name in positive and number <= 0):
-                    kind_of = "positive" if name in positive else "finite"
-                    raise ValueError(f"{where} must be {kind_of}, got {value!r}")
-                if name in fractions and not 0.0 <= number <= 1.0:
-                    raise ValueError(f"{where} must lie within [0, 1], got {value!r}")
-        elif kind == "bool":
-            if not isinstance(value, bool):
-                raise TypeError(f"{where} must be True or False, got {value!r}")
-        elif (
-            kind in globals()
-            and isinstance(globals()[kind], type)
-            and not isinstance(value, globals()[kind])
-        ):
-            raise TypeError(f"{where} must be a {kind}, got {type(value).__name__}")
+        value = getattr(settings, name)
+        if typing.get_origin(kind) is tuple:
+            entries = typing.get_args(kind)
+            if not isinstance(value, tuple) or not value:
+                one = "number" if entries[0] is float else entries[0].__name__
+                raise SettingTypeError(
+                    f"{where} must be a tuple of at least one {one}, got {value!r}"
+                )
+            if entries[-1] is not Ellipsis and len(value) != len(entries):
+                raise ValueError(f"{where} must hold {len(entries)} entries, got {value!r}")
+            for k, entry in enumerate(value):
+                _check_value(entry, entries[0], f"{where}[{k}]", name, positive, fractions)
+        else:
+            _check_value(value, kind, where, name, positive, fractions)
+
+
+def _check_value(
+    value: object,
+    kind: Any,
+    where: str,
+    name: str,
+    positive: tuple[str, ...],
+    fractions: tuple[str, ...],
+) -> None:
+    """One value of :func:`_check_fields` against its type ``kind``."""
+    if kind is bool:
+        boolean(value, where)
+    elif kind is int:
+        whole_number(value, where, minimum=1 if name in positive else 0)
+    elif kind is float and name in fractions:
+        real_number(value, where, low=0.0, high=1.0)
+    elif kind is float and name in positive:
+        real_number(value, where, low=0.0, low_open=True)
+    elif kind is float:
+        real_number(value, where)
+    elif isinstance(kind, type) and not isinstance(value, kind):
+        raise SettingTypeError(f"{where} must be a {kind.__name__}, got {type(value).__name__}")
 
 
 @dataclass(frozen=True, slots=True)
 class RotationParams:
-    """Rotation hypotheses from angular spectra (:mod:`merging.angular`).
+    """Rotation hypotheses from angular spectra (:mod:`merging.tomographic.angular`).
 
     Attributes
     ----------
@@ -111,7 +141,9 @@ class RotationParams:
 
 @dataclass(frozen=True, slots=True)
 class TranslationParams:
-    """Translation hypotheses from the pooled projection correlation (:mod:`merging.correlate`).
+    """Translation hypotheses from the pooled projection correlation.
+
+    Used by :mod:`merging.tomographic.correlate`.
 
     Attributes
     ----------
@@ -131,7 +163,7 @@ class TranslationParams:
         Translations kept per rotation hypothesis.
     significant_peaks : int
         Further translations kept per rotation hypothesis, the strongest by
-        significance rather than by collected mass (:mod:`merging.correlate`):
+        significance rather than by collected mass (:mod:`merging.tomographic.correlate`):
         a shift laying much of map 2 loosely on map 1 collects more mass
         than one laying a small part exactly, so the true shift of maps that
         share 3-15 % of their area is rarely among the strongest by mass. On
@@ -166,12 +198,12 @@ class TranslationParams:
     min_overlap_blocks: float = 4.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("coarse_cells", "peaks", "min_overlap_blocks"), fractions=())
+        _check_fields(self, positive=("coarse_cells", "peaks", "min_overlap_blocks"))
 
 
 @dataclass(frozen=True, slots=True)
 class VerifyParams:
-    """Carrying each map's walls into the other (:mod:`merging.verify`).
+    """Carrying each map's walls into the other (:mod:`merging.evidence.verify`).
 
     Attributes
     ----------
@@ -204,7 +236,7 @@ class VerifyParams:
         and window pairs of four maps (any value from 1 to 2 ranks every
         window pair as 0.05 alone did), checked on the odd-numbered ones.
     ranking_tolerance : int
-        When above 0, the ranking score (:attr:`merging.verify.Verification.score`)
+        When above 0, the ranking score (:attr:`merging.evidence.verify.Verification.score`)
         adds the quality with walls counted as met within this many cells
         (chessboard; conflicts only beyond it plus ``conflict_clearance``) to
         the quality within ``near_radius``: ray consistency that survives
@@ -233,7 +265,9 @@ class VerifyParams:
 
 @dataclass(frozen=True, slots=True)
 class ConfidenceParams:
-    """The five factors of :func:`merging.verify.confidence`, the mirror check, the threshold.
+    """The five factors of the confidence, the mirror check, the threshold.
+
+    The factors are those of :func:`merging.evidence.verify.confidence`.
 
     The constants were set on 200 window pairs of four real maps and 144
     pairs of robots' maps from six simulated episodes, so that no merge more
@@ -280,10 +314,10 @@ class ConfidenceParams:
         For the default method: the best transform must explain this much
         more than map 2's mirror image laid on the same overlap, as a
         fraction of its net agreeing wall cells there
-        (:func:`merging.mirror.mirror_share`, one minus that share), for the
+        (:func:`merging.evidence.mirror.mirror_share`, one minus that share), for the
         mirror factor to pass one half; evidence that looks the same in a
         mirror cannot tell a place from its mirror twin in a mirror-symmetric
-        building (:mod:`merging.mirror`). The mirrored placement competes
+        building (:mod:`merging.evidence.mirror`). The mirrored placement competes
         like the best different one, so it is held to the same margin as
         ``distinct_margin`` (and width), not to a value of its own. Looked at
         while choosing the counting (window pairs of four maps, seeds 7 and 5
@@ -295,7 +329,7 @@ class ConfidenceParams:
         ``scripts/bench_real_maps.py`` and the tests), 83-97 %.
     strength_scale : float
         Constraint strength (matching cells per cell² of motion along the
-        weakest direction, :func:`merging.refine.constraint_strength`) at which
+        weakest direction, :func:`merging.evidence.refine.constraint_strength`) at which
         that factor reaches 1 - 1/e: an overlap of one short wall scores about
         3, a room corner about 30.
     shared_space_scale : float
@@ -305,9 +339,21 @@ class ConfidenceParams:
         along one wall share none.
     pin_cells : tuple of float
         Distances (cells RMS over map 2's walls) by which
-        :func:`merging.pinning.pinning` moves a placement whose constraint
+        :func:`merging.evidence.pinning.pinning` moves a placement whose constraint
         strength is weak, to see what moving it costs: the accuracy a merge
         is asked for (2 cells, ``scripts/bench_merge.py``) and twice that.
+    pin_directions : int
+        Directions of translation tried at each of those distances, evenly
+        spread: 8, every 45 degrees, puts the weakest direction of a straight
+        corridor within 22.5 degrees of one of them. Each move is the
+        distance in the chessboard metric of the verification's cell
+        tolerance (a diagonal move of 2 cells is (2, 2), not (1.4, 1.4),
+        which lands every cell next to where it was).
+    pin_below : float
+        The curvature's constraint factor below which the verdict also
+        measures what moving the placement costs: above it the curvature
+        alone lets the other factors decide, and the moves are not worth
+        their milliseconds.
     pin_scale : float
         Net evidence lost by the cheapest of those moves (cells, both
         directions together: agreeing walls lost plus ``conflict_weight``
@@ -317,7 +363,7 @@ class ConfidenceParams:
         a corridor does. A corridor with nothing across it loses nothing,
         and a placement off the truth gains by moving towards it.
     turn_scale : float
-        Strength of the turn alone (:func:`merging.refine.turning_strength`,
+        Strength of the turn alone (:func:`merging.evidence.refine.turning_strength`,
         matching cells per cell² of map 2's RMS motion) at which the
         constraint factor reaches 1 - 1/e when the curvature alone would
         give less. Larger than ``strength_scale``: a small overlap turns
@@ -350,6 +396,8 @@ class ConfidenceParams:
     strength_scale: float = 10.0
     shared_space_scale: float = 1000.0
     pin_cells: tuple[float, ...] = (2.0, 4.0)
+    pin_directions: int = 8
+    pin_below: float = 0.9
     pin_scale: float = 40.0
     turn_scale: float = 15.0
     accept: float = 0.6
@@ -364,10 +412,11 @@ class ConfidenceParams:
                 "strength_scale",
                 "shared_space_scale",
                 "pin_cells",
+                "pin_directions",
                 "pin_scale",
                 "turn_scale",
             ),
-            fractions=("accept",),
+            fractions=("pin_below", "accept"),
         )
 
 
@@ -381,14 +430,14 @@ class RobustParams:
     space, so the fit factor of :class:`ConfidenceParams` refuses it. Such a
     placement is vouched for instead when *all* of these hold (each a
     logistic factor passing one half at its threshold; the confidence is the
-    weakest of them, :func:`merging.robust.robust_confidence`, so acceptance
+    weakest of them, :func:`merging.evidence.robust.robust_confidence`, so acceptance
     at ``ConfidenceParams.accept`` asks each measure to pass its threshold
     by 0.4 of its narrow width):
 
     Attributes
     ----------
     margin : float
-        Ranking score (:attr:`merging.verify.Verification.score`) by which the
+        Ranking score (:attr:`merging.evidence.verify.Verification.score`) by which the
         placement beats the best *different* one, one farther than
         ``distinct_cells``.
     distinct_cells : float
@@ -480,13 +529,15 @@ class RobustParams:
 
 @dataclass(frozen=True, slots=True)
 class GaussNewtonParams:
-    """The Gauss-Newton fit of map 2's walls to map 1's blurred walls (:mod:`merging.refine`).
+    """The Gauss-Newton fit of map 2's walls to map 1's blurred walls.
+
+    Used by :mod:`merging.evidence.refine`.
 
     Attributes
     ----------
     newton_factor : float
         Step multiplier turning the half-way Gauss-Newton step into Newton's
-        step (see :mod:`merging.refine`).
+        step (see :mod:`merging.evidence.refine`).
     backtracks : int
         Times a step is halved when it lowers the objective, before giving up.
     damping : float
@@ -581,7 +632,7 @@ class RefineStage:
     local: bool
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("sigmas",), fractions=())
+        _check_fields(self, positive=("sigmas",))
 
 
 DEFAULT_STAGES = (
@@ -609,7 +660,7 @@ COMPROMISE = RefineStage(
     admit=1, refine=1, sigmas=(8.0, 4.0), iterations=15, points=3000, local=False
 )
 """Refining an accepted placement of maps that bend against each other to the best rigid
-compromise over the whole overlap (:func:`merging.tomographic._compromise`): fields as
+compromise over the whole overlap (``_compromise`` in :mod:`merging.tomographic.search`): fields as
 wide as the bending between sessions (up to half a metre, 10 cells at 0.05 m) and half
 that, over all of map 1, with twice the points of the other stages, as the parts that
 bend away are what the compromise weighs. On a third of the E5 session pairs (every
@@ -634,10 +685,10 @@ class TomographicParams:
     stages : tuple of RefineStage
         The refinement schedule, walked in order.
     from_start : RefineStage
-        How :func:`merging.tomographic.refine_from` refines a given transform.
+        How :func:`merging.tomographic.search.refine_from` refines a given transform.
     mirror_stages : tuple of RefineStage
         The refinement schedule of the search for the mirror image of the
-        evidence (:mod:`merging.mirror`).
+        evidence (:mod:`merging.evidence.mirror`).
     compromise : RefineStage
         How an accepted placement of maps that bend against each other is
         refined to the best rigid compromise over the whole overlap
@@ -655,7 +706,7 @@ class TomographicParams:
         shift, slightly misaligned, verifies worse than loose large overlaps
         until it is refined.
     close_alternative : float
-        Quality (:attr:`merging.verify.Verification.quality`) at or above
+        Quality (:attr:`merging.evidence.verify.Verification.quality`) at or above
         which a placement of the pool is judged too when the best by score
         is refused: walls meeting within a cell with almost no conflict.
         The ranking score prefers much shared open space, which maps of
@@ -667,7 +718,7 @@ class TomographicParams:
     widest_per_block : float
         Widest field of the first refinement stage, in blocks of the coarse
         correlation grid: its hypotheses are off by up to half a block plus
-        their rotation error (see :func:`merging.tomographic.coarse_to_fine`).
+        their rotation error (see :func:`merging.tomographic.search.coarse_to_fine`).
         Below 6 blocks' worth of map (800 cells) no wider field is added.
     keep_refined_margin : float
         Score by which a refined transform may verify worse than its start
@@ -697,18 +748,15 @@ class TomographicParams:
     distinct_cells: float = 4.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=(), fractions=())
+        _check_fields(self)
         for name in ("stages", "mirror_stages"):
             _check_schedule(name, getattr(self, name))
 
 
 def _check_schedule(name: str, stages: tuple[RefineStage, ...]) -> None:
-    """Raise naming ``name`` unless ``stages`` is a schedule the refinement can walk."""
-    if not stages:
-        raise ValueError(f"{name} must hold at least one RefineStage")
+    """Raise naming ``name`` unless ``stages`` (RefineStages, at least one, as
+    :func:`_check_fields` has checked) is a schedule the refinement can walk."""
     for k, stage in enumerate(stages):
-        if not isinstance(stage, RefineStage):
-            raise TypeError(f"{name}[{k}] must be a RefineStage, got {type(stage).__name__}")
         if stage.refine < 1 or stage.iterations < 1 or stage.points < 3 or not stage.sigmas:
             raise ValueError(
                 f"{name}[{k}] must refine at least one candidate with at least one "
@@ -720,3 +768,40 @@ def _check_schedule(name: str, stages: tuple[RefineStage, ...]) -> None:
 
 DEFAULT_PARAMS = TomographicParams()
 """The settings :func:`merging.estimate_transform` uses unless given others."""
+
+
+@dataclass(frozen=True, slots=True)
+class LinkingParams:
+    """How far chained transforms may disagree before a pair is dropped as contradicting.
+
+    Used by :func:`merging.link_maps` and :func:`merging.merge_all`
+    (:mod:`merging.linking.forest`, steps 2 and 5) for any method.
+
+    Attributes
+    ----------
+    contradiction_cells : float
+        Cells RMS, over the grid's occupied cells, by which a pair must
+        disagree with a chain of others to be dropped: half a metre at
+        0.05 m. Transforms chained from right merges of drifting robots'
+        maps stay within a few cells of each other; a wrong match is off by
+        a room or by tens of degrees.
+    bent_contradiction_cells : float
+        The same for a comparison involving a pair vouched for as maps that
+        bend (separate sessions of a floor,
+        :func:`merging.linking.forest.bends`): each such pair is right only
+        to within the bending, so the three of a triangle of right pairs
+        miss by up to 47 cells RMS (42 on the Halmstad E5 floor's 122
+        accepted triangles, 47 on F5's 39: ``scripts/bench_cycles.py``),
+        where the wrong placements the bending evidence once accepted lay
+        285-910 cells off. Three metres at 0.05 m.
+    """
+
+    contradiction_cells: float = 10.0
+    bent_contradiction_cells: float = 60.0
+
+    def __post_init__(self) -> None:
+        _check_fields(self, positive=("contradiction_cells", "bent_contradiction_cells"))
+
+
+DEFAULT_LINKING = LinkingParams()
+"""The settings :func:`merging.link_maps` uses unless given others."""

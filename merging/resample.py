@@ -1,7 +1,7 @@
 """Bringing a grid to a coarser resolution, so that maps of different resolutions merge.
 
 A coarse cell takes the **maximum** of the ROS values of the fine cells whose
-centres fall inside it (as :mod:`merging.fusion` combines overlapping maps):
+centres fall inside it (as :mod:`merging.linking.fusion` combines overlapping maps):
 a wall seen in any part of it makes it occupied, otherwise any free part
 makes it free, and only a wholly unobserved cell stays unknown. Thin walls
 therefore survive the reduction, which is what matching needs.

@@ -17,7 +17,7 @@ class Hypothesis:
     """One candidate transform a method considered.
 
     ``score`` is the method's own ranking value (higher is better); the
-    verification fields are those of :class:`merging.verify.Verification`.
+    verification fields are those of :class:`merging.evidence.verify.Verification`.
     """
 
     matrix: NDArray[np.float64]
@@ -46,7 +46,7 @@ class MergeResult:
         The method's registered name.
     matrix_metres : (3, 3) float ndarray or None
         The same transform between the maps' frames in metres (map 2 frame ->
-        map 1 frame), when both inputs were :class:`OccupancyGrid`s; always
+        map 1 frame), when both inputs were :class:`OccupancyGrid` objects; always
         rigid.
     hypotheses : tuple of Hypothesis
         Candidates considered, best first.
@@ -71,7 +71,7 @@ class MergeResult:
         the close fit; ``robust_confidence`` then is absent); for a placement a way
         would vouch for, ``mirror_share`` and ``close_mirror`` or
         ``tolerant_mirror_share`` and ``robust_mirror`` against map 2's
-        mirror image; see :mod:`merging.verdict` and :mod:`merging.mirror`).
+        mirror image; see :mod:`merging.evidence.verdict` and :mod:`merging.evidence.mirror`).
     """
 
     matrix: NDArray[np.float64]

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import merging
-from merging.metrics import transform_error
+from merging.evaluation.metrics import transform_error
 from tomosim.commands.script_args import positive_float, run_script, shared_maps
 
 FLOORS = ("F5", "HIH", "KPT4A")

@@ -24,27 +24,35 @@ columns). The global merge searches run in a worker process
 (:mod:`tomosim.team.worker`); when a round needs searches the worker has not
 started, the environment's process runs them itself rather than wait idle.
 The ``cpu`` rate divides by the process's CPU time less those searches: the
-environment's own cost, comparable between versions and steadier than the
-wall clock on a machine loaded by other work; ``searches here`` is the share
-of the process's CPU time that went to searches. The wall clock includes
-every wait for the worker: on a machine with no idle core for it, it reads
-low. To compare with another checkout, run this script with
-``PYTHONPATH=/path/to/that/checkout``.
+environment's own cost, steadier than the wall clock on a machine loaded by
+other work; ``searches here`` is the share of the process's CPU time that
+went to searches. The wall clock includes every wait for the worker: on a
+machine with no idle core for it, it reads low.
 
 Each timed run waits until the search worker is ready (it warms up for about
 a second after it starts), as it waits for compiled code with its untimed
-warm-up steps: a learner's millions of steps see the worker ready.
+warm-up steps: a learner's millions of steps see the worker ready
+(:mod:`bench_env_runner`, which does the timed runs).
 
-Measured on this 2-core machine with nothing else running, 11 times over an
-hour (medians of 9 runs of 300 steps, wall clock): 3 robots 3753 to 6673
-robot-steps/s (median 5676), 8 robots 2473 to 4298 (median 3563), following
-the host's speed, which the ``cpu`` column shows falling alike; against the
-version before, run by run, 1.11 times as fast with 3 robots (geometric
-mean of six pairs; README, "The environment: robot-steps per second").
+Comparing checkouts
+-------------------
+The host's speed drifts by a factor of two within an hour, so versions are
+compared only within one run: ``--against PATH [PATH ...]`` times this
+checkout and each other one (e.g. an older commit made with ``git worktree
+add --detach PATH COMMIT``) in turn, one run of each per seed, the first to
+run moving round from seed to seed. Each checkout runs in its own child
+process (``bench_env_runner.py`` with ``PYTHONPATH`` and the working
+directory set to that checkout, under this interpreter and its packages),
+which must report that it imported the environment from inside that
+checkout. It prints each checkout's median and spread of robot-steps per
+second by the wall clock, and for each other checkout the ratio of this
+checkout's median to its median and the median and spread of the ratios of
+runs with the same seed.
 
 Usage::
 
     python scripts/bench_env.py [--robots 3 8] [--steps 300] [--repeats 9]
+    python scripts/bench_env.py --against ../round1 ../main --robots 3 8
     python scripts/bench_env.py --vector 1 2 --steps 200 --repeats 3
     python scripts/bench_env.py --profile 600   # cProfile of one run, top functions
 """
@@ -54,86 +62,36 @@ from __future__ import annotations
 import argparse
 import cProfile
 import importlib.util
+import json
+import os
 import pstats
 import statistics
+import subprocess
+import sys
 import time
 from collections.abc import Callable
-from typing import Any
+from pathlib import Path
+from typing import IO, Any
 
 import numpy as np
+from bench_env_runner import (
+    ACTION_SEED_OFFSET,
+    WARMUP_STEPS,
+    merging_off,
+    run_steps,
+    timed_run,
+    wait_for_worker,
+    warm_up,
+)
 
 from envs import multi_robot_exploration_v0 as exploration
 from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 
-try:
-    from tomosim.team.worker import WorkerSearches
-except ImportError:  # a checkout from before the search worker, timed with PYTHONPATH
-    WorkerSearches = None
-
-WARMUP_STEPS = 20
-"""Untimed steps before each timed run (first-call and compilation costs)."""
-WORKER_READY_SECONDS = 60.0
-"""How long a run waits for the search worker to warm up before its timed steps."""
 VECTOR_WARMUP_SECONDS = 2.0
 """Untimed stepping of a vector env before its timed steps (its processes' search
 workers warm up meanwhile)."""
-ACTION_SEED_OFFSET = 1000
-"""Offset between a run's reset seed and the seed of its action sampler."""
-
-
-def random_actions(env: Any, generator: np.random.Generator) -> dict[str, Any]:
-    """Uniform actions in ``[-1, 1]^2`` for every live agent."""
-    return {agent: generator.uniform(-1.0, 1.0, 2).astype(np.float32) for agent in env.agents}
-
-
-def searches_here() -> float:
-    """CPU seconds this process has spent on merge searches it took back from the worker
-    (0 for a checkout whose environment never does that, timed with ``PYTHONPATH``)."""
-    return float(getattr(WorkerSearches, "cpu_seconds_here", 0.0))
-
-
-def wait_for_worker() -> None:
-    """Wait until the search worker is warmed up (a second or so after it starts).
-
-    Until then an environment runs its searches itself; a learner's millions of
-    steps see the worker ready, so the timed steps should too. For an older
-    checkout timed with ``PYTHONPATH``, whose searches have no ``wait_ready``,
-    this polls its worker's flag; a checkout without a worker is not waited for.
-    """
-    if WorkerSearches is None:
-        return
-    wait_ready = getattr(WorkerSearches, "wait_ready", None)
-    if wait_ready is None:
-        worker = WorkerSearches.worker()
-        deadline = time.monotonic() + WORKER_READY_SECONDS
-        while not getattr(worker, "ready", True) and time.monotonic() < deadline:
-            time.sleep(0.01)
-        return
-    if not wait_ready(WORKER_READY_SECONDS):
-        raise RuntimeError(
-            f"the merge search worker was not ready within {WORKER_READY_SECONDS} s; "
-            "check that `python -m tomosim.search_worker` starts in this environment"
-        )
-
-
-def run_steps(
-    env: Any, steps: int, generator: np.random.Generator, seed: int
-) -> tuple[float, float, float]:
-    """Step ``env`` ``steps`` times under random actions, resetting ended episodes;
-    returns the wall-clock and CPU seconds taken, and the CPU seconds of merge
-    searches this process ran itself (taken back from the worker)."""
-    start, cpu = time.perf_counter(), time.process_time()
-    searches = searches_here()
-    for _ in range(steps):
-        if not env.agents:
-            seed += 1
-            env.reset(seed=seed)
-        env.step(random_actions(env, generator))
-    return (
-        time.perf_counter() - start,
-        time.process_time() - cpu,
-        searches_here() - searches,
-    )
+RUNNER = Path(__file__).resolve().with_name("bench_env_runner.py")
+"""The script that times one checkout in a child process (``--against``)."""
 
 
 def bench_single(
@@ -143,18 +101,136 @@ def bench_single(
     clock and by CPU time without merge searches, and the share of the process's CPU
     time spent on merge searches."""
     wall, cpu, shares = [], [], []
+    warm_up(robots)
     for repeat in range(repeats):
-        env = exploration.parallel_env(robots=robots, **kwargs)
-        env.reset(seed=repeat)
-        wait_for_worker()
-        generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
-        run_steps(env, WARMUP_STEPS, generator, repeat)
-        seconds, cpu_seconds, search_seconds = run_steps(env, steps, generator, repeat)
+        seconds, cpu_seconds, search_seconds = timed_run(robots, steps, repeat, **kwargs)
         wall.append(robots * steps / seconds)
         cpu.append(robots * steps / max(cpu_seconds - search_seconds, 1e-9))
         shares.append(search_seconds / max(cpu_seconds, 1e-9))
-        env.close()
     return wall, cpu, shares
+
+
+class Checkout:
+    """A child process that times one checkout's environment (``bench_env_runner.py``).
+
+    The child runs with ``PYTHONPATH`` set to the checkout and its working directory
+    there (the merge search worker it starts imports from it too); it must say that it
+    imported the environment from inside the checkout, else this refuses it.
+    """
+
+    def __init__(self, root: Path) -> None:
+        self.root = root.resolve()
+        if not (self.root / "envs" / "multi_robot_exploration_v0.py").is_file():
+            raise ValueError(
+                f"--against {root}: no envs/multi_robot_exploration_v0.py there; give the "
+                "root of a tomosim checkout (e.g. one made with git worktree add)"
+            )
+        self.label = f"{self.root} ({commit_of(self.root)})"
+        paths = [str(self.root), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+        self.process = subprocess.Popen(
+            [sys.executable, str(RUNNER)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            cwd=self.root,
+            env={**os.environ, "PYTHONPATH": os.pathsep.join(paths)},
+        )
+        module = Path(self._answer()["module"]).resolve()
+        if not module.is_relative_to(self.root):
+            self.close()
+            raise ValueError(
+                f"timing {self.root} imported the environment from {module} instead; "
+                "check that the checkout has envs/__init__.py and nothing earlier on the "
+                "path shadows it"
+            )
+
+    def _answer(self) -> dict[str, Any]:
+        """The child's next line, decoded."""
+        assert self.process.stdout is not None  # a pipe, made in __init__
+        line = self.process.stdout.readline()
+        if not line:
+            raise RuntimeError(
+                f"the timing process of {self.root} ended (exit status "
+                f"{self.process.wait()}); its error is above"
+            )
+        answer: dict[str, Any] = json.loads(line)
+        return answer
+
+    def rate(self, robots: int, steps: int, seed: int) -> float:
+        """Robot-steps per second, by the wall clock, of one timed run."""
+        stdin: IO[str] | None = self.process.stdin
+        assert stdin is not None  # a pipe, made in __init__
+        stdin.write(json.dumps({"robots": robots, "steps": steps, "seed": seed}) + "\n")
+        stdin.flush()
+        return robots * steps / self._answer()["wall"]
+
+    def close(self) -> None:
+        """End the child (closing its input ends it)."""
+        for stream in (self.process.stdin, self.process.stdout):
+            if stream is not None:
+                stream.close()
+        self.process.wait()
+
+
+def commit_of(root: Path) -> str:
+    """The checkout's commit, abbreviated, with ``+`` when it has uncommitted changes."""
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "not a git checkout"
+    return head + ("+" if dirty else "")
+
+
+def compare(others: list[Path], robots_list: list[int], steps: int, repeats: int) -> None:
+    """Time this checkout and ``others`` run by run, in turn, and print their rates
+    and the ratios of this checkout's to each other's (module docstring)."""
+    here = Path(__file__).resolve().parents[1]
+    checkouts = [Checkout(root) for root in [here, *others]]
+    try:
+        for robots in robots_list:
+            rates: list[list[float]] = [[] for _ in checkouts]
+            for repeat in range(repeats):  # the first to run moves round each time
+                first = repeat % len(checkouts)
+                for index in [*range(first, len(checkouts)), *range(first)]:
+                    rates[index].append(checkouts[index].rate(robots, steps, repeat))
+            print_comparison(robots, checkouts, rates)
+    finally:
+        for checkout in checkouts:
+            checkout.close()
+
+
+def print_comparison(robots: int, checkouts: list[Checkout], rates: list[list[float]]) -> None:
+    """The tables of :func:`compare` for one number of robots."""
+    width = max(len(checkout.label) for checkout in checkouts) + len("this ") + 1
+    print(f"\n{robots} robots, robot-steps/s by the wall clock, runs in turn")
+    print(f"{'checkout':<{width}} {'median':>8} {'min':>8} {'max':>8}")
+    for index, checkout in enumerate(checkouts):
+        mark = "this " if index == 0 else ""
+        print(
+            f"{mark + checkout.label:<{width}} {statistics.median(rates[index]):>8.0f} "
+            f"{min(rates[index]):>8.0f} {max(rates[index]):>8.0f}"
+        )
+    columns = f"{'ratio of medians':>17} {'pair ratios: median':>20} {'min':>6} {'max':>6}"
+    print(f"\n{'this checkout against':<{width}} {columns}")
+    for index in range(1, len(checkouts)):
+        pairs = [mine / theirs for mine, theirs in zip(rates[0], rates[index], strict=True)]
+        ratio = statistics.median(rates[0]) / statistics.median(rates[index])
+        print(
+            f"{checkouts[index].label:<{width}} {ratio:>17.2f} {statistics.median(pairs):>20.2f}"
+            f" {min(pairs):>6.2f} {max(pairs):>6.2f}",
+            flush=True,
+        )
 
 
 def advance_vector(venv: Any, steps: int, actions: Callable[[], Any]) -> float:
@@ -241,8 +317,10 @@ def header(title: str, cpu: bool = False) -> str:
 
 
 def profile(steps: int, top: int) -> None:
-    """Print the ``top`` functions by cumulative time of one default run of ``steps`` steps."""
+    """Print the ``top`` functions by cumulative time of one default run of ``steps`` steps
+    (after an untimed run, so that loading compiled code is not profiled)."""
     env = exploration.parallel_env()
+    warm_up(len(env.possible_agents))
     env.reset(seed=0)
     wait_for_worker()
     generator = np.random.default_rng(ACTION_SEED_OFFSET)
@@ -271,18 +349,30 @@ def main() -> None:
         "--profile", type=non_negative_int, default=0, help="profile this many steps"
     )
     parser.add_argument("--top", type=positive_int, default=40, help="functions the profile lists")
+    parser.add_argument(
+        "--against",
+        type=Path,
+        nargs="+",
+        default=[],
+        metavar="PATH",
+        help="also time these checkouts, run by run in turn with this one, and print the ratios",
+    )
     args = parser.parse_args()
     if args.vector and importlib.util.find_spec("supersuit") is None:  # before the long tables
         parser.error('--vector needs the rl extra: python -m pip install -e ".[rl]"')
     if args.profile:
         profile(args.profile, args.top)
         return
+    if args.against:
+        print(f"{args.steps} timed steps x {args.repeats} runs per checkout, random actions")
+        compare(args.against, args.robots, args.steps, args.repeats)
+        return
     print(f"{args.steps} timed steps x {args.repeats} repeats, random actions, robot-steps/s")
     print(header("one environment, parallel_env() defaults", cpu=True))
     for robots in args.robots:
         print(row(f"{robots} robots", *bench_single(robots, args.steps, args.repeats)), flush=True)
         if args.no_merge:
-            rates = bench_single(robots, args.steps, args.repeats, merge=False)
+            rates = bench_single(robots, args.steps, args.repeats, **merging_off())
             print(row(f"{robots} robots, no merging", *rates), flush=True)
     if args.vector:
         print(header("K environments, SuperSuit vector env (3 robots each)"))

@@ -2,9 +2,9 @@
 
 A kernel is kept hand-written only while it is clearly faster than the
 library call doing the same job (each is also tested to give the library's
-result, in ``tests/merging/test_kernels.py``). Today one such kernel:
+result, in ``tests/merging/tomographic/test_kernels.py``). Today one such kernel:
 
-* :func:`merging.verify.dilate` (chessboard dilation by separable shifted
+* :func:`merging.evidence.verify.dilate` (chessboard dilation by separable shifted
   ORs) against ``scipy.ndimage.binary_dilation`` with a square element and
   ``scipy.ndimage.maximum_filter``.
 
@@ -26,8 +26,8 @@ import numpy as np
 from scipy import ndimage
 
 import merging
+from merging.evidence.verify import dilate
 from merging.grid import occupied_mask
-from merging.verify import dilate
 from tomosim.commands.script_args import positive_int, run_script
 from tomosim.data import maps_dir, maps_missing
 

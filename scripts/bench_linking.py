@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import merging
-from merging.metrics import transform_error
+from merging.evaluation.metrics import transform_error
 from tomosim.commands.script_args import run_script, shared_maps
 
 

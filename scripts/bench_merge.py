@@ -1,6 +1,6 @@
 """Benchmark the mergers on the paper's section 4.1 protocol, on real maps.
 
-For each map, window pairs are cut with :func:`merging.pairs.cut_window_pairs`
+For each map, window pairs are cut with :func:`merging.evaluation.pairs.cut_window_pairs`
 (the second window rotated by a uniform random angle and shifted, average
 overlap 0.15-0.9). Every method runs on the same pairs, one after the other,
 so that machine load affects them alike. Reported per method:
@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 
 import merging
-from merging.metrics import matching_index, transform_error
-from merging.pairs import cut_window_pairs
+from merging.evaluation.metrics import matching_index, transform_error
+from merging.evaluation.pairs import cut_window_pairs
 from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 from tomosim.data import maps_dir, maps_missing
 

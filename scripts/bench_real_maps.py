@@ -57,8 +57,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 import merging
-from merging.metrics import transform_error
-from merging.pairs import cut_window_pairs
+from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
 from merging.transforms import rigid_matrix
 from tomosim.commands.script_args import non_negative_int, run_script
 from tomosim.data import maps_dir, maps_missing

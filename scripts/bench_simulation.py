@@ -33,7 +33,7 @@ from tomosim.evaluation import coverage
 from tomosim.exploration import FrontierPolicy
 from tomosim.lidar import LidarConfig
 from tomosim.lidar_oracle import cast_pymunk
-from tomosim.raycast import cast_segments, cull_segments, segment_bounds
+from tomosim.ray_geometry import cast_segments, cull_segments, segment_bounds
 from tomosim.simulation import Simulation, SimulationConfig
 from tomosim.worlds import generate_floorplan
 

@@ -29,16 +29,16 @@ from pathlib import Path
 import numpy as np
 
 import merging
-from merging.metrics import transform_error
-from merging.pairs import cut_window_pairs
+from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
+from merging.evidence.verify import ACCEPT_CONFIDENCE
 from merging.transforms import matrix_to_pose, wrap_angle
-from merging.verify import ACCEPT_CONFIDENCE
 from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 from tomosim.data import maps_dir, maps_missing
 from tomosim.episode import EpisodeConfig, load_world
 from tomosim.exploration import FrontierPolicy
 from tomosim.frames import pose_matrix
-from tomosim.team.session import TeamConfig, TeamSession
+from tomosim.team import TeamConfig, TeamSession
 
 WINDOW_RIGHT_CELLS = 2.0
 """A window merge is right within this RMS error (the benchmark's bar)."""
@@ -68,9 +68,9 @@ def window_rows(names: list[str], count: int, seed: int):
 
 def episode_rows(worlds: list[int]):
     for world_seed in worlds:
-        config = EpisodeConfig(world=world_seed, seed=world_seed, robots=ROBOTS)
-        team = TeamConfig(merge=False, simulation=config.simulation)
-        session = TeamSession(load_world(config.world), robots=ROBOTS, config=team,
+        config = EpisodeConfig(world=world_seed, seed=world_seed, robots=ROBOTS,
+                               team=TeamConfig(merge=False))  # fmt: skip
+        session = TeamSession(load_world(config.world), robots=ROBOTS, config=config.team,
                               rng=config.seed)  # fmt: skip
         policies = [FrontierPolicy() for _ in range(ROBOTS)]
         while session.steps < EPISODE_STEPS:

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 import merging
-from merging.pairs import cut_window_pairs
+from merging.evaluation.pairs import cut_window_pairs
 from tomosim.commands.script_args import run_script
 from tomosim.data import maps_dir, maps_missing
 

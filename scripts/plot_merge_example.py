@@ -1,8 +1,8 @@
 """Draw one merge for the README: two windows of a map, and what the merger made of them.
 
 By default the map is the project's own generated floor plan (seed 3); ``--map
-NAME`` takes a real map from the shared folder instead (``../shared/maps`` or
-``$TOMOSIM_MAPS``), for a look that is not committed.
+NAME`` takes a real map by name instead (``tomosim maps`` lists them), for a look
+that is not committed.
 
 Usage::
 
@@ -18,10 +18,9 @@ from pathlib import Path
 import numpy as np
 
 import merging
-from merging.metrics import transform_error
-from merging.pairs import cut_window_pairs
+from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
 from tomosim.commands.script_args import non_negative_int, run_script
-from tomosim.data import maps_dir, maps_missing
 from tomosim.worlds import generate_floorplan
 
 GREY = {-1: 0.75, 0: 1.0, 100: 0.0}
@@ -56,11 +55,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.map is None:
         whole = generate_floorplan(args.floor).truth
     else:
-        folder = maps_dir()
-        if folder is None:
-            print(f"error: {maps_missing()}", file=sys.stderr)
+        try:
+            whole = merging.load_map(args.map)
+        except FileNotFoundError as exc:
+            print(f"error: {exc}", file=sys.stderr)
             return 1
-        whole = merging.load_map(folder / f"{args.map}.yaml")
     pair = cut_window_pairs(whole.data, count=1, rng=args.seed)[0]
     result = merging.estimate_transform(pair.map1, pair.map2)
     rms, rotation = transform_error(result.matrix, pair.truth, pair.map2)

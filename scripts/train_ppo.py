@@ -5,15 +5,9 @@ generated floor every episode; ``observation_format="normalised"``: the map
 window as a ``uint8`` image, read by a CNN) are the entries of one
 Stable-Baselines3 vector env (:func:`envs.vector.make_sb3_vector_env`), so
 one policy acts for every robot from its own observation. After training,
-the policy and three baselines run the same episodes on held-out floors
-(``HELD_OUT_FLOORS``, never drawn in training):
-
-* ``random``: uniform random actions;
-* ``best_constant``: the constant action (of a grid of forward arcs) with
-  the highest mean coverage on these very episodes, the strongest
-  observation-blind policy;
-* ``frontier``: frontier exploration on the robots' whole best maps
-  (**privileged**: it reads more than the observation).
+the policy and three baselines (random actions, the best constant action,
+the privileged frontier policy; :mod:`policy_comparison.evaluation`) run the
+same episodes on held-out floors (``HELD_OUT_FLOORS``, never drawn in training).
 
 The output folder holds ``learning_curve.csv`` (one row per finished training
 episode, written as they finish), ``learning_curve.png``, ``summary.json``
@@ -22,10 +16,19 @@ with each episode's figures) and ``model.zip``. A folder that already holds
 any of them is refused, so that a rerun never mixes two runs' files. Ctrl-C
 during training keeps the curve so far and saves the model as it is.
 
+``--tensorboard DIR`` also writes TensorBoard scalars into ``DIR/PPO_1``
+(``PPO_2``, ... for later runs into the same folder): Stable-Baselines3's own
+(``rollout/ep_rew_mean``, the episode return summed over a robot's steps;
+``train/...``, the losses) and the finished episodes' figures of
+:mod:`envs.learning_metrics` under ``exploration/`` (team coverage, steps to
+the target, path length, overlap rate, accepted and confirmed merges), means
+over the episodes of each rollout, against agent-steps.
+
 Usage::
 
     pip install -e ".[rl]"
-    python scripts/train_ppo.py --timesteps 200000 --out results/ppo
+    python scripts/train_ppo.py --timesteps 200000 --out results/ppo --tensorboard results/tb
+    tensorboard --logdir results/tb
     python scripts/train_ppo.py --timesteps 256 --smoke --out /tmp/ppo   # a few iterations
 """
 
@@ -33,32 +36,23 @@ from __future__ import annotations
 
 import argparse
 import csv
+import importlib.util
 import json
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from policy_comparison.curves import plot_curve
+from policy_comparison.evaluation import Agents, compare, print_comparison
 
 from envs import multi_robot_exploration_v0 as exploration
-from envs.baselines import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.vector import RL_INSTALL, make_sb3_vector_env
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
 
-EVALUATION_SEED = 10_000
-"""Evaluation episode ``e`` is ``reset(seed=EVALUATION_SEED + e)`` on held-out floors."""
-CONSTANT_ACTIONS = [(linear, angular) for linear in (0.5, 1.0) for angular in (0.0, 0.2, 0.4, 0.7)]
-"""Forward arcs tried for the best constant action (a turn's sign does not matter
-on random floors, so only left turns are tried)."""
-CURVE_WINDOW = 20
-"""Episodes in the rolling mean of the learning curve's plot."""
 OUTPUTS = ("learning_curve.csv", "learning_curve.png", "summary.json", "model.zip")
 """What a run writes into ``--out``; a folder holding any of them is refused."""
-
-Agents = Callable[[Any, dict[str, dict[str, Any]]], dict[str, Any]]
-"""``agents(env, observations) -> actions`` of the live agents."""
 
 
 def env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -112,31 +106,6 @@ def learning_callback(path: Path, robots: int) -> Any:
     return LearningCurve()
 
 
-def run_episode(env: Any, agents: Agents, seed: int) -> dict[str, Any]:
-    """One episode of ``agents``; its mean return per robot and final team coverage."""
-    observations, _ = env.reset(seed=seed)
-    while env.agents:
-        observations, *_ = env.step(agents(env, observations))
-    record = env.last_episode
-    return {
-        "world": record["world"],
-        "steps": record["l"],
-        "mean_return": float(np.mean(list(record["returns"].values()))),
-        "team_coverage": record["team_coverage"],
-    }
-
-
-def evaluate(agents: Agents, args: argparse.Namespace) -> dict[str, Any]:
-    """``agents`` on ``--eval-episodes`` held-out episodes (the same for every policy)."""
-    env = exploration.parallel_env(floors=exploration.HELD_OUT_FLOORS, **env_kwargs(args))
-    episodes = [run_episode(env, agents, EVALUATION_SEED + e) for e in range(args.eval_episodes)]
-    return {
-        "mean_return": float(np.mean([e["mean_return"] for e in episodes])),
-        "team_coverage": float(np.mean([e["team_coverage"] for e in episodes])),
-        "episodes": episodes,
-    }
-
-
 def model_agents(model: Any) -> Agents:
     """The trained policy, acting deterministically for each robot from its observation."""
 
@@ -149,59 +118,6 @@ def model_agents(model: Any) -> Agents:
         return dict(zip(agents, actions, strict=True))
 
     return act
-
-
-def blind(baseline: Callable[[Any], dict[str, Any]]) -> Agents:
-    """A baseline that ignores the observation, as an :data:`Agents`."""
-    return lambda env, _observations: baseline(env)
-
-
-def plot_curve(csv_path: Path, png_path: Path, summary: dict[str, Any]) -> None:
-    """Rolling mean of team coverage and return against timesteps, baselines as lines."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    with csv_path.open() as handle:
-        rows = list(csv.DictReader(handle))
-    steps = np.array([float(r["timesteps"]) for r in rows])
-    figure, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for axis, key, label in (
-        (axes[0], "team_coverage", "final team coverage"),
-        (axes[1], "mean_return", "episode return per robot [m²]"),
-    ):
-        values = np.array([float(r[key]) for r in rows])
-        if len(values):
-            kernel = np.ones(min(CURVE_WINDOW, len(values))) / min(CURVE_WINDOW, len(values))
-            smooth = np.convolve(values, kernel, mode="valid")
-            axis.plot(steps, values, ".", alpha=0.25, color="tab:blue", label="training episodes")
-            axis.plot(
-                steps[len(steps) - len(smooth) :], smooth, color="tab:blue", label="rolling mean"
-            )
-        for name, colour in (
-            ("trained", "tab:blue"),
-            ("best_constant", "tab:orange"),
-            ("random", "tab:grey"),
-            ("frontier", "tab:green"),
-        ):
-            axis.axhline(
-                summary["evaluation"][name][key],
-                color=colour,
-                linestyle="--",
-                label=f"{name.replace('_', ' ')} (held-out)",
-            )
-        axis.set_xlabel("agent-steps (timesteps)")
-        axis.set_ylabel(label)
-        axis.grid(alpha=0.3)
-    axes[0].legend(fontsize=8, loc="lower right")
-    figure.suptitle(
-        f"PPO, one policy for {summary['robots']} robots, {summary['timesteps']} timesteps "
-        f"({summary['training_seconds'] / 60:.0f} min)"
-    )
-    figure.tight_layout()
-    figure.savefig(png_path, dpi=110)
-    plt.close(figure)
 
 
 def main() -> None:
@@ -227,6 +143,10 @@ def main() -> None:
     parser.add_argument("--eval-episodes", type=positive_int, default=5, help="held-out episodes")
     parser.add_argument("--seed", type=non_negative_int, default=0)
     parser.add_argument(
+        "--tensorboard", type=Path, default=None, metavar="DIR",
+        help="also write TensorBoard scalars into DIR (watch with: tensorboard --logdir DIR)",
+    )  # fmt: skip
+    parser.add_argument(
         "--smoke", action="store_true",
         help="tiny settings, for tests: 2 robots, 40-step episodes on 12 x 9 m floors, "
         "32-step rollouts in one batch, 1 epoch, 1 held-out episode (these override "
@@ -251,6 +171,12 @@ def main() -> None:
         from stable_baselines3 import PPO
     except ImportError:
         sys.exit(f"train_ppo.py needs Stable-Baselines3 and torch: {RL_INSTALL}")
+    if args.tensorboard is not None and importlib.util.find_spec("tensorboard") is None:
+        sys.exit(f"--tensorboard needs the tensorboard package: {RL_INSTALL}")
+    from stable_baselines3.common.callbacks import CallbackList
+
+    from envs.sb3 import ExplorationMetricsCallback
+
     torch.set_num_threads(1)  # the environments use the other cores
     args.out.mkdir(parents=True, exist_ok=True)
     venv = make_sb3_vector_env(
@@ -268,11 +194,15 @@ def main() -> None:
         seed=args.seed,
         device="cpu",
         verbose=0,
+        tensorboard_log=None if args.tensorboard is None else str(args.tensorboard),
     )
     curve = args.out / "learning_curve.csv"
+    callbacks = [learning_callback(curve, args.robots)]
+    if args.tensorboard is not None:
+        callbacks.append(ExplorationMetricsCallback(args.robots))
     clock = time.perf_counter()
     try:
-        model.learn(total_timesteps=args.timesteps, callback=learning_callback(curve, args.robots))
+        model.learn(total_timesteps=args.timesteps, callback=CallbackList(callbacks))
     except KeyboardInterrupt:  # keep the training done so far
         model.save(args.out / "model.zip")
         print(f"the model after {model.num_timesteps} timesteps is in {args.out / 'model.zip'}",
@@ -282,17 +212,9 @@ def main() -> None:
         venv.close()
     training_seconds = time.perf_counter() - clock
     model.save(args.out / "model.zip")
-    evaluation = {
-        "trained": evaluate(model_agents(model), args),
-        "random": evaluate(blind(RandomBaseline(rng=args.seed)), args),
-        "frontier": {**evaluate(blind(FrontierBaseline()), args), "privileged": True},
-    }
-    constants = {
-        f"{linear:+.1f},{angular:+.1f}": evaluate(blind(ConstantBaseline((linear, angular))), args)
-        for linear, angular in CONSTANT_ACTIONS
-    }
-    best = max(constants, key=lambda name: constants[name]["team_coverage"])
-    evaluation["best_constant"] = {**constants[best], "action": [float(v) for v in best.split(",")]}
+    evaluation, constants = compare(
+        model_agents(model), env_kwargs(args), args.eval_episodes, seed=args.seed
+    )
     summary = {
         "command": " ".join(sys.argv),
         "timesteps": int(model.num_timesteps),
@@ -302,17 +224,19 @@ def main() -> None:
         "max_cycles": args.max_cycles,
         "held_out_episodes": args.eval_episodes,
         "evaluation": evaluation,
-        "constant_actions": {k: v["team_coverage"] for k, v in constants.items()},
+        "constant_actions": constants,
     }
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
-    plot_curve(curve, args.out / "learning_curve.png", summary)
+    plot_curve(
+        curve,
+        args.out / "learning_curve.png",
+        summary,
+        title=f"PPO, one policy for {summary['robots']} robots, {summary['timesteps']} timesteps "
+        f"({summary['training_seconds'] / 60:.0f} min)",
+        points="training episodes",
+    )
     print(f"trained {summary['timesteps']} timesteps in {training_seconds:.0f} s; held-out floors:")
-    for name in ("trained", "best_constant", "random", "frontier"):
-        result = evaluation[name]
-        print(
-            f"  {name:<14} coverage {result['team_coverage']:.3f}  "
-            f"return per robot {result['mean_return']:.2f} m²"
-        )
+    print_comparison(summary)
     print(f"outputs in {args.out}")
 
 

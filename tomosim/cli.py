@@ -21,7 +21,7 @@ from types import ModuleType
 from tomosim.commands import CommandError, Parser, UsageError, one_line
 from tomosim.commands.stopping import Stopped, stop_signals_handled
 
-COMMANDS = ("explore", "review", "merge", "sweep")
+COMMANDS = ("explore", "review", "merge", "sweep", "maps")
 """Command modules under :mod:`tomosim.commands`, in the order ``tomosim --help`` lists
 them. They import the simulator, the merger and the viewer's SDK, seconds of work, so
 they are imported inside :func:`main`, where a Ctrl-C meanwhile stops as at any other

@@ -12,8 +12,8 @@ Scan coding (every consumer relies on it):
 
 The robot does not see itself; other robots are circles and are seen. A
 scan is cast by the compiled :func:`tomosim.kernels.raycast.cast_scan`, the
-algorithm of :func:`tomosim.raycast.cast_segments` and
-:func:`tomosim.raycast.cast_circles` in one loop; the tests check it against
+algorithm of :func:`tomosim.ray_geometry.cast_segments` and
+:func:`tomosim.ray_geometry.cast_circles` in one loop; the tests check it against
 those and against pymunk's segment queries (:mod:`tomosim.lidar_oracle`).
 """
 
@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.validators import real_number, whole_number
 from tomosim.kernels.raycast import add_noise, cast_scan, scan_team
 from tomosim.worlds.world import as_segments
 
@@ -57,18 +58,14 @@ class LidarConfig:
     dropout_probability: float = 0.005
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.beams, int | np.integer) and self.beams >= 2):
-            raise ValueError(f"beams must be an integer of at least 2, got {self.beams!r}")
+        whole_number(self.beams, "beams", minimum=2)
         if not 0.0 < self.fov <= 2.0 * np.pi + FULL_CIRCLE_TOLERANCE:
             raise ValueError(f"fov must be in (0, 2 pi] radians, got {self.fov}")
-        if not (np.isfinite(self.max_range) and self.max_range > 0):
-            raise ValueError(f"max_range must be a positive number of metres, got {self.max_range}")
-        if not (np.isfinite(self.range_noise_std) and self.range_noise_std >= 0):
-            raise ValueError(f"range_noise_std must be >= 0 metres, got {self.range_noise_std}")
-        if not 0.0 <= self.dropout_probability < 1.0:
-            raise ValueError(
-                f"dropout_probability must be in [0, 1), got {self.dropout_probability}"
-            )
+        real_number(self.max_range, "max_range", low=0.0, low_open=True, unit="metres")
+        real_number(self.range_noise_std, "range_noise_std", low=0.0, unit="metres")
+        real_number(
+            self.dropout_probability, "dropout_probability", low=0.0, high=1.0, high_open=True
+        )
 
     @property
     def full_circle(self) -> bool:
@@ -141,6 +138,11 @@ class Lidar:
         self._angles = config.angles()
         self._angles.setflags(write=False)
 
+    @property
+    def angles(self) -> NDArray[np.float64]:
+        """``(B,)`` beam directions relative to the heading, radians (read-only)."""
+        return self._angles
+
     def true_ranges(
         self,
         pose: ArrayLike,
@@ -202,7 +204,7 @@ class Lidar:
 
         The same scans as :meth:`scan` from each pose in turn with the other
         robots as ``others`` (robot ``k`` drawing from ``rngs[k]``), in one
-        compiled call.
+        compiled call; their ranges are the rows of :meth:`team_ranges`.
 
         Parameters
         ----------
@@ -213,6 +215,13 @@ class Lidar:
         rngs : sequence of N numpy.random.Generator
             Each robot's stream.
         """
+        ranges = self.team_ranges(poses, radius=radius, rngs=rngs)
+        return [Scan(self._angles, row, self.config.max_range) for row in ranges]
+
+    def team_ranges(
+        self, poses: NDArray[np.float64], *, radius: float, rngs: Sequence[np.random.Generator]
+    ) -> NDArray[np.float64]:
+        """``(N, B)`` ranges of the scans of :meth:`scans` (same arguments), one row a robot."""
         cfg = self.config
         beams = cfg.beams
         poses = np.ascontiguousarray(poses, dtype=np.float64)
@@ -223,10 +232,10 @@ class Lidar:
             raise ValueError(f"need one generator per pose, got {len(rngs)} for {robots}")
         normals = np.empty((robots, beams))
         uniforms = np.empty((robots, beams))
-        for k, rng in enumerate(rngs):  # per robot, as scan() draws them
-            normals[k] = rng.normal(0.0, 1.0, beams)
-            uniforms[k] = rng.random(beams)
-        ranges = scan_team(
+        for k, rng in enumerate(rngs):  # per robot, the values scan() draws, in its order
+            rng.standard_normal(out=normals[k])
+            rng.random(out=uniforms[k])
+        return scan_team(
             poses,
             cfg.first_angle,
             cfg.increment,
@@ -239,4 +248,3 @@ class Lidar:
             cfg.range_noise_std,
             cfg.dropout_probability,
         )
-        return [Scan(self._angles, row, cfg.max_range) for row in ranges]

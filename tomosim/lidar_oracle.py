@@ -1,6 +1,6 @@
 """A reference lidar built on pymunk's segment queries, one query per beam.
 
-It is slower than :func:`tomosim.raycast.cast_segments` but independent of
+It is slower than :func:`tomosim.ray_geometry.cast_segments` but independent of
 it (Chipmunk's own ray-shape tests and spatial index), which makes it the
 oracle the numpy caster is tested against, and the baseline the benchmark
 compares it with.

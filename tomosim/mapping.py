@@ -29,14 +29,22 @@ to date cell by cell.
 from __future__ import annotations
 
 import math
-import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
-from tomosim.kernels.logodds import code_thresholds, update_grid
+from merging.validators import boolean, real_number
+from tomosim.kernels.logodds import (
+    GROW_SCRATCH,
+    INTEGRATED,
+    SATURATED,
+    SCAN_NUMBER_BITS,
+    code_thresholds,
+    update_grid,
+)
 from tomosim.lidar import Scan
 
 HIT_DEPTH_CELLS = 0.5
@@ -49,9 +57,10 @@ SAMPLE_STEP_CELLS = 1.0
 a diagonal crossing may skip a corner cell, which neighbouring beams fill."""
 
 STAMP_DTYPE = np.uint8
-"""Type of the kernel's per-cell scan stamps: one byte keeps them, and the cells a
-scan reads, in fewer cache lines; the stamps are cleared every 255 scans, when the
-scan numbers start again."""
+"""Type of the kernel's per-cell stamps (a scan number and a flag,
+:mod:`tomosim.kernels.logodds`): one byte keeps them, and the cells a scan reads, in
+fewer cache lines; their scan numbers are cleared every 127 scans, when the numbers
+start again."""
 MAX_GRID_SIDE_CELLS = 20000
 """Most cells a side that an initial grid or one growth step may take (20000 x
 20000 cells of log-odds alone take 1.6 GB); a building at 0.05 m is a few
@@ -93,8 +102,8 @@ class MappingConfig:
     carve_no_return: bool = True
 
     def __post_init__(self) -> None:
+        real_number(self.resolution, "resolution", low=0.0, low_open=True, unit="metres")
         for name in (
-            "resolution",
             "log_odds_hit",
             "log_odds_miss",
             "log_odds_min",
@@ -102,17 +111,8 @@ class MappingConfig:
             "initial_extent",
             "growth_padding",
         ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real):
-                raise TypeError(f"{name} must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value}")
-        if not isinstance(self.carve_no_return, bool):
-            raise TypeError(f"carve_no_return must be True or False, got {self.carve_no_return!r}")
-        if not self.resolution > 0:
-            raise ValueError(
-                f"resolution must be a positive number of metres, got {self.resolution}"
-            )
+            real_number(getattr(self, name), name)
+        boolean(self.carve_no_return, "carve_no_return")
         if not (self.log_odds_hit > 0 > self.log_odds_miss):
             raise ValueError(
                 f"need log_odds_hit > 0 > log_odds_miss, got "
@@ -145,20 +145,67 @@ def _check_scan(scan: Scan) -> None:
     The compiled kernel reads one angle per range; it checks each beam's angle
     and range itself (finite, within ``[0, max_range]`` or ``inf``/``nan``).
     """
-    angles, ranges = np.asarray(scan.angles), np.asarray(scan.ranges)
-    if angles.ndim != 1 or angles.shape != ranges.shape:
+    _check_layout(np.asarray(scan.angles), np.shape(scan.ranges), scan.max_range)
+
+
+def _check_layout(angles: NDArray[np.float64], shape: tuple[int, ...], limit: object) -> None:
+    """:func:`_check_scan` of a scan whose ranges have ``shape``."""
+    if angles.ndim != 1 or angles.shape != shape:
         raise ValueError(
             f"a scan needs one angle per range, got angles of shape {angles.shape} and "
-            f"ranges of shape {ranges.shape}"
+            f"ranges of shape {shape}"
         )
-    limit = scan.max_range
-    if isinstance(limit, bool) or not isinstance(limit, numbers.Real):
-        raise TypeError(f"a scan's max_range must be a number of metres, got {limit!r}")
-    if not (math.isfinite(limit) and limit > 0):
-        raise ValueError(
-            f"a scan's max_range must be a finite positive number of metres, got {limit} "
-            "(a beam without return is inf; the limit is where the map stops carving)"
-        )
+    if type(limit) is float and 0.0 < limit < math.inf:  # the usual case, checked at once
+        return
+    try:
+        real_number(limit, "a scan's max_range", low=0.0, low_open=True, unit="metres")
+    except ValueError as error:  # SettingTypeError stays a TypeError too
+        raise type(error)(
+            f"{error} (a beam without return is inf; the limit is where the map stops carving)"
+        ) from None
+
+
+def ray_cells(
+    origin: tuple[float, float], ends: NDArray[np.float64], hit: NDArray[np.bool_], cols: int
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The cells a scan passes and hits (steps 1-2 of the module docstring).
+
+    Parameters are those of :func:`integrate_rays`, and ``cols``, the grid's width.
+
+    Returns
+    -------
+    passed : (S,) intp ndarray
+        Flat index (``row * cols + col``) of the cell of every sample, beam by beam
+        and from the sensor out; a cell appears once per sample that lies in it.
+    hit : (H,) intp ndarray
+        Flat index of the hit cell of every beam that returned, in beam order.
+    """
+    ox, oy = origin
+    dx = ends[:, 0] - ox
+    dy = ends[:, 1] - oy
+    counts = np.ceil(np.hypot(dx, dy) / SAMPLE_STEP_CELLS).astype(np.intp)
+    np.maximum(counts, 1, out=counts)
+    total = int(counts.sum())
+    # Sample j of beam i sits at origin + j / counts[i] * (end - origin), j < counts[i].
+    first = np.cumsum(counts) - counts
+    step = np.arange(total, dtype=np.float32)
+    step -= np.repeat(first.astype(np.float32), counts)
+    xs = np.repeat((dx / counts).astype(np.float32), counts)
+    xs *= step
+    xs += np.float32(ox + 0.5)
+    ys = np.repeat((dy / counts).astype(np.float32), counts)
+    ys *= step
+    ys += np.float32(oy + 0.5)
+    passed = ys.astype(np.intp)
+    passed *= cols
+    passed += xs.astype(np.intp)
+    # Hit cells: the end point carried HIT_DEPTH_CELLS further along its beam.
+    lengths = np.maximum(np.hypot(dx[hit], dy[hit]), np.finfo(float).tiny)
+    depth = HIT_DEPTH_CELLS / lengths
+    hits = np.floor(
+        np.column_stack([ends[hit, 0] + dx[hit] * depth, ends[hit, 1] + dy[hit] * depth]) + 0.5
+    ).astype(np.intp)
+    return passed, hits[:, 1] * cols + hits[:, 0]
 
 
 def integrate_rays(
@@ -188,33 +235,7 @@ def integrate_rays(
     config : MappingConfig
         Log-odds increments and clamp.
     """
-    _rows, cols = logodds.shape
-    ox, oy = origin
-    dx = ends[:, 0] - ox
-    dy = ends[:, 1] - oy
-    counts = np.ceil(np.hypot(dx, dy) / SAMPLE_STEP_CELLS).astype(np.intp)
-    np.maximum(counts, 1, out=counts)
-    total = int(counts.sum())
-    # Sample j of beam i sits at origin + j / counts[i] * (end - origin), j < counts[i].
-    first = np.cumsum(counts) - counts
-    step = np.arange(total, dtype=np.float32)
-    step -= np.repeat(first.astype(np.float32), counts)
-    xs = np.repeat((dx / counts).astype(np.float32), counts)
-    xs *= step
-    xs += np.float32(ox + 0.5)
-    ys = np.repeat((dy / counts).astype(np.float32), counts)
-    ys *= step
-    ys += np.float32(oy + 0.5)
-    passed = ys.astype(np.intp)
-    passed *= cols
-    passed += xs.astype(np.intp)
-    # Hit cells: the end point carried HIT_DEPTH_CELLS further along its beam.
-    lengths = np.maximum(np.hypot(dx[hit], dy[hit]), np.finfo(float).tiny)
-    depth = HIT_DEPTH_CELLS / lengths
-    hits = np.floor(
-        np.column_stack([ends[hit, 0] + dx[hit] * depth, ends[hit, 1] + dy[hit] * depth]) + 0.5
-    ).astype(np.intp)
-    hit_index = hits[:, 1] * cols + hits[:, 0]
+    passed, hit_index = ray_cells(origin, ends, hit, logodds.shape[1])
     flat = logodds.reshape(-1)
     before = flat[hit_index]
     values = flat[passed]
@@ -265,7 +286,9 @@ class LogOddsMap:
     __slots__ = (
         "_cells",
         "_scans",
+        "_scratch",
         "_stamps",
+        "_wanted",
         "config",
         "journal",
         "logodds",
@@ -280,11 +303,14 @@ class LogOddsMap:
         self.observed = np.zeros((side, side), dtype=bool)
         corner = -(side // 2) * self.config.resolution
         self.origin = (corner, corner)
-        # The ROS-coded grid, recoded cell by cell as scans change cells, and per
-        # cell the number of the last scan that passed it (the kernel's stamps).
+        # The ROS-coded grid, recoded cell by cell as scans change cells, per cell the
+        # number of the last scan that passed it and whether it is saturated (the
+        # kernel's stamps), and the kernel's working memory, kept between scans.
         self._cells = np.full((side, side), UNKNOWN, dtype=np.int8)
         self._stamps = np.zeros((side, side), dtype=STAMP_DTYPE)
         self._scans = 0
+        self._scratch = np.zeros(0, dtype=np.int64)
+        self._wanted = np.zeros(4)  # what the kernel asks for before it can integrate
         self.journal: list[NDArray[np.int64]] | None = None
 
     @property
@@ -316,9 +342,9 @@ class LogOddsMap:
             raise RuntimeError("the journal is off; call start_journal() first")
         entries = self.journal
         self.journal = []
-        if not entries:
-            return np.zeros((0, 2), dtype=np.int64)
-        return entries[0] if len(entries) == 1 else np.concatenate(entries)
+        if len(entries) == 1:  # one update since the last call, as in a simulation step
+            return entries[0]
+        return np.concatenate(entries) if entries else np.zeros((0, 2), dtype=np.int64)
 
     def to_cells(self, points: ArrayLike) -> NDArray[np.float64]:
         """``(N, 2)`` map-frame metres to cell coordinates (centres at integers)."""
@@ -356,15 +382,28 @@ class LogOddsMap:
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             raise ValueError(f"pose must be finite, got {(x, y, theta)}")
         _check_scan(scan)
+        self._integrate(x, y, theta, scan.angles, scan.ranges, scan.max_range)
+
+    def _integrate(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        angles: NDArray[np.float64],
+        ranges: NDArray[np.float64],
+        max_range: float,
+    ) -> None:
+        """:meth:`update` with its arguments checked (a finite pose, one angle per range)."""
         cfg = self.config
         room_checked = False
         while True:
-            # Scan numbers run 1..255 and start again on cleared stamps (STAMP_DTYPE).
-            self._scans = self._scans % np.iinfo(STAMP_DTYPE).max + 1
+            # Scan numbers run 1..127 and start again on stamps whose numbers are
+            # cleared (the saturation flags stay).
+            self._scans = self._scans % SCAN_NUMBER_BITS + 1
             if self._scans == 1:
-                self._stamps.fill(0)
+                np.bitwise_and(self._stamps, STAMP_DTYPE(SATURATED), out=self._stamps)
             a0, b0 = self.anchor
-            grow, fresh = update_grid(
+            status, fresh = update_grid(
                 self.logodds,
                 self.observed,
                 self._cells,
@@ -376,9 +415,9 @@ class LogOddsMap:
                 x,
                 y,
                 theta,
-                scan.angles,
-                scan.ranges,
-                scan.max_range,
+                angles,
+                ranges,
+                max_range,
                 cfg.carve_no_return,
                 room_checked,
                 cfg.log_odds_hit,
@@ -390,12 +429,17 @@ class LogOddsMap:
                 CODE_THRESHOLDS,
                 a0,
                 b0,
+                self._scratch,
+                self._wanted,
             )
-            if len(grow) == 0:
+            if status == INTEGRATED:
                 break
+            if status == GROW_SCRATCH:
+                self._scratch = np.empty(int(self._wanted[0]), dtype=np.int64)
+                continue
             # The quick test of the kernel failed; ensure_contains applies the exact one
             # (the scan needs half the room it asks for).
-            self.ensure_contains(grow[:2], grow[2:])
+            self.ensure_contains(self._wanted[:2], self._wanted[2:])
             room_checked = True
         if self.journal is not None and len(fresh):
             self.journal.append(fresh)
@@ -417,3 +461,43 @@ class LogOddsMap:
             resolution=self.config.resolution,
             origin=(self.origin[0], self.origin[1], 0.0),
         )
+
+
+def update_maps(
+    maps: Sequence[LogOddsMap],
+    poses: ArrayLike,
+    angles: NDArray[np.float64],
+    ranges: NDArray[np.float64],
+    max_range: float,
+) -> None:
+    """Integrate one scan into each of ``maps``, the arguments checked once for all.
+
+    The same as ``maps[k].update(poses[k], Scan(angles, ranges[k], max_range))``
+    for each ``k`` in turn, as a team's simulation step does.
+
+    Parameters
+    ----------
+    maps : sequence of N LogOddsMap
+    poses : (N, 3) array_like
+        Pose of each scan in its map's frame ``(x, y, theta)``, metres and radians.
+    angles : (B,) float ndarray
+        Beam directions relative to the heading, shared by the scans.
+    ranges : (N, B) float ndarray
+        Each scan's ranges (:class:`tomosim.lidar.Scan`).
+    max_range : float
+        The lidar's range limit, metres.
+    """
+    pose_rows = np.asarray(poses, dtype=float)
+    values = pose_rows.tolist()
+    if pose_rows.shape != (len(maps), 3) or not all(
+        math.isfinite(v) for pose in values for v in pose
+    ):
+        raise ValueError(
+            f"poses must be finite, one (x, y, theta) per map: shape ({len(maps)}, 3), "
+            f"got {pose_rows.shape}"
+        )
+    if ranges.ndim != 2 or len(ranges) != len(maps):
+        raise ValueError(f"ranges must hold one row per map ({len(maps)}), got {ranges.shape}")
+    _check_layout(angles, ranges.shape[1:], max_range)  # the layout all rows share
+    for grid_map, (x, y, theta), row in zip(maps, values, ranges, strict=True):
+        grid_map._integrate(x, y, theta, angles, row, max_range)

@@ -11,10 +11,13 @@ true pose is never used for anything but the increment.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from merging.validators import real_number
 
 
 @dataclass(frozen=True)
@@ -56,9 +59,7 @@ class OdometryConfig:
 
     def __post_init__(self) -> None:
         for name in ("translation_noise", "rotation_noise", "drift_per_metre"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {value}")
+            real_number(getattr(self, name), name, low=0.0)
 
 
 def relative_motion(before: ArrayLike, after: ArrayLike) -> NDArray[np.float64]:
@@ -105,14 +106,14 @@ class Odometry:
         x, y, theta = (float(v) for v in np.asarray(true_pose, dtype=float))
         self._last_true = (x, y, theta)
 
-    def update(self, true_pose: ArrayLike) -> NDArray[np.float64]:
+    def update(self, true_pose: Sequence[float] | NDArray[np.float64]) -> NDArray[np.float64]:
         """Advance the estimate by the noisy motion since the last call; returns it.
 
         Draws exactly three normal variates per call, moving or not. The
         arithmetic is that of :func:`relative_motion` and :func:`compose`, on
         plain floats (a step costs a few numpy calls less).
         """
-        x1, y1, t1 = np.asarray(true_pose, dtype=float).tolist()
+        x1, y1, t1 = (float(v) for v in true_pose)
         x0, y0, t0 = self._last_true
         self._last_true = (x1, y1, t1)
         # relative_motion(last, now)

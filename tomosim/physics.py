@@ -18,12 +18,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 import pymunk
 from numpy.typing import ArrayLike, NDArray
 
-from tomosim.raycast import distance_to_segments
+from merging.validators import real_number, whole_number
+from tomosim.ray_geometry import distance_to_segments
+from tomosim.robot import ROBOT_RADIUS_M
 from tomosim.worlds.world import as_segments
 
 MAX_SUBSTEP_TRAVEL = 0.25
@@ -37,6 +40,12 @@ CONTACT_TOLERANCE = 0.01
 above the collision slop, below any gap a robot would drive through."""
 ROBOT_GROUP_OFFSET = 1
 """Robot ``i``'s shapes are in pymunk group ``i + ROBOT_GROUP_OFFSET`` (group 0 means none)."""
+SET_VELOCITY = cast(Any, pymunk.Body.velocity).fset  # pymunk types it as a method
+"""The setter of a body's velocity (:meth:`Physics.drive` calls it directly)."""
+SET_ANGULAR_VELOCITY = cast(Any, pymunk.Body.angular_velocity).fset
+"""The setter of a body's angular velocity (:meth:`Physics.drive` calls it directly)."""
+GET_ANGLE = cast(Any, pymunk.Body.angle).fget
+"""The getter of a body's angle (:meth:`Physics.drive` calls it directly)."""
 
 
 @dataclass(frozen=True)
@@ -59,7 +68,7 @@ class PhysicsConfig:
         pymunk solver iterations per substep.
     """
 
-    robot_radius: float = 0.2
+    robot_radius: float = ROBOT_RADIUS_M
     robot_mass: float = 10.0
     max_linear_speed: float = 1.0
     max_angular_speed: float = 2.0
@@ -78,17 +87,13 @@ class PhysicsConfig:
             "max_angular_acceleration",
             "collision_slop",
         ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number, got {value}")
+            real_number(getattr(self, name), name, low=0.0, low_open=True)
         if self.collision_slop >= 0.1 * self.robot_radius:
             raise ValueError(
                 f"collision_slop ({self.collision_slop} m) must be well below the "
                 f"robot radius ({self.robot_radius} m)"
             )
-        iterations = self.solver_iterations
-        if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-            raise ValueError(f"solver_iterations must be a whole number >= 1, got {iterations!r}")
+        whole_number(self.solver_iterations, "solver_iterations", minimum=1)
 
     def substeps(self, dt: float) -> int:
         """Substeps per step of ``dt`` seconds that keep travel below
@@ -222,13 +227,22 @@ class Physics:
         top_speed, top_turn = cfg.max_linear_speed, cfg.max_angular_speed
         speeds = [min(max(value, -top_speed), top_speed) for value in speeds]
         turns = [min(max(value, -top_turn), top_turn) for value in turns]
-        substeps = cfg.substeps(dt)
+        self.drive(speeds, turns, dt)
+
+    def drive(self, speeds: list[float], turns: list[float], dt: float) -> None:
+        """:meth:`step` with its arguments checked: one finite speed (m/s) and turn rate
+        (rad/s) per robot within the limits, and ``dt > 0`` seconds."""
+        substeps = self.config.substeps(dt)
         h = dt / substeps
+        # The properties' own setters and getter, called directly: pymunk routes every
+        # attribute access through a generic __setattr__ that doubles a setter's cost.
+        set_velocity, set_turn = SET_VELOCITY, SET_ANGULAR_VELOCITY
+        # A turn rate is the control body's own; nothing else changes it (a kinematic
+        # body's velocity is only what it is set to): set once a step.
+        for control, turn in zip(self.controls, turns, strict=True):
+            set_turn(control, turn)
         for _ in range(substeps):
-            for body, control, speed, turn in zip(
-                self.bodies, self.controls, speeds, turns, strict=True
-            ):
-                heading = body.angle
-                control.velocity = (speed * math.cos(heading), speed * math.sin(heading))
-                control.angular_velocity = turn
+            for body, control, speed in zip(self.bodies, self.controls, speeds, strict=True):
+                heading = GET_ANGLE(body)
+                set_velocity(control, (speed * math.cos(heading), speed * math.sin(heading)))
             self.space.step(h)

@@ -22,11 +22,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
+from merging.validators import RngLike, as_generator, real_number
 from tomosim.lidar import Lidar, LidarConfig, Scan
-from tomosim.mapping import LogOddsMap, MappingConfig
+from tomosim.mapping import LogOddsMap, MappingConfig, update_maps
 from tomosim.odometry import Odometry, OdometryConfig
 from tomosim.physics import Physics, PhysicsConfig
-from tomosim.worlds.world import NoRoomError, RngLike, World, as_generator
+from tomosim.worlds.world import NoRoomError, World
 
 START_CLEARANCE_MARGIN = 0.15
 """Metres of free space beyond the robot radius around a random start position."""
@@ -59,8 +60,7 @@ class SimulationConfig:
     mapping: MappingConfig = field(default_factory=MappingConfig)
 
     def __post_init__(self) -> None:
-        if isinstance(self.dt, bool) or not (math.isfinite(self.dt) and self.dt > 0):
-            raise ValueError(f"dt must be a positive number of seconds, got {self.dt!r}")
+        real_number(self.dt, "dt", low=0.0, low_open=True, unit="seconds")
         self.physics.substeps(self.dt)  # raises for a step the physics cannot take in time
 
 
@@ -103,8 +103,8 @@ class Simulation:
     odometry : list of Odometry
     maps : list of LogOddsMap
         Each robot's map in its own start frame.
-    scans : list of Scan
-        The latest scan of each robot.
+    ranges : (N, B) float ndarray
+        The latest scans' ranges, one row a robot (``scans[k].ranges`` is row ``k``).
     steps : int
         Steps taken.
 
@@ -125,13 +125,14 @@ class Simulation:
 
     __slots__ = (
         "_lidar_rngs",
+        "_scans",
         "_true",
         "config",
         "lidar",
         "maps",
         "odometry",
         "physics",
-        "scans",
+        "ranges",
         "start_poses",
         "steps",
         "world",
@@ -192,13 +193,23 @@ class Simulation:
         self.maps = [LogOddsMap(self.config.mapping) for _ in range(len(start))]
         self.steps = 0
         self._true = self.physics.poses()
-        self.scans: list[Scan] = []
+        self._scans: list[Scan] | None = None  # made from ranges when asked for
+        self.ranges = np.zeros((len(start), self.config.lidar.beams))
         self._sense()
 
     @property
     def count(self) -> int:
         """Number of robots."""
         return len(self.maps)
+
+    @property
+    def scans(self) -> list[Scan]:
+        """The latest scan of each robot (its ranges a row of ``ranges``; the same list until
+        the next step)."""
+        if self._scans is None:
+            angles, max_range = self.lidar.angles, self.lidar.config.max_range
+            self._scans = [Scan(angles, row, max_range) for row in self.ranges]
+        return self._scans
 
     @property
     def time(self) -> float:
@@ -235,7 +246,8 @@ class Simulation:
         if not all(math.isfinite(v) and abs(v) <= 1.0 for pair in values for v in pair):
             raise ValueError(f"commands must be finite and within [-1, 1], got {values}")
         phys = self.config.physics
-        self.physics.step(
+        # Commands within [-1, 1] ask for speeds within the limits: nothing to clip.
+        self.physics.drive(
             [linear * phys.max_linear_speed for linear, _ in values],
             [angular * phys.max_angular_speed for _, angular in values],
             self.config.dt,
@@ -248,8 +260,10 @@ class Simulation:
 
     def _sense(self) -> None:
         """Scan from every true pose and map at every odometry pose."""
-        self.scans = self.lidar.scans(
+        lidar = self.lidar
+        self.ranges = lidar.team_ranges(
             self._true, radius=self.config.physics.robot_radius, rngs=self._lidar_rngs
         )
-        for grid_map, odometry, scan in zip(self.maps, self.odometry, self.scans, strict=True):
-            grid_map.update(odometry.pose, scan)
+        angles, max_range = lidar.angles, lidar.config.max_range
+        self._scans = None
+        update_maps(self.maps, self.odometry_poses, angles, self.ranges, max_range)

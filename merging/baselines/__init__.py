@@ -24,5 +24,5 @@ same result type, conventions and bad-input behaviour as the default:
 The paper's baselines have no acceptance test; here each one's
 ``confidence`` and ``accepted`` come from the shared verification
 (:func:`merging.baselines.common.verdict`), so that "accepted" means the
-same for every method. The rigid RANSAC fit is :mod:`merging.ransac`.
+same for every method. The rigid RANSAC fit is :mod:`merging.baselines.ransac`.
 """

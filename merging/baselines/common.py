@@ -5,8 +5,8 @@ minimum-eigenvalue feature matching, image registration) says whether its
 answer can be trusted. So that ``accepted`` means the same for every method
 in :func:`merging.estimate_transform`, each baseline hands its transform to
 :func:`verdict`, which applies the verification the tomographic and paper
-methods use (:mod:`merging.verify`): fit, support and constraint strength
-(:func:`merging.refine.constraint_strength`). As for the paper's method, no
+methods use (:mod:`merging.evidence.verify`): fit, support and constraint strength
+(:func:`merging.evidence.refine.constraint_strength`). As for the paper's method, no
 distinctiveness factor is used, because a baseline has no runner-up of its
 own to compare with.
 """
@@ -20,11 +20,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from merging.evidence.refine import SmoothedMap, constraint_strength
+from merging.evidence.verdict import CLOSE_FACTORS, refusal_reason
+from merging.evidence.verify import ACCEPT_CONFIDENCE, confidence_factors, prepare_map, verify
 from merging.grid import free_mask, occupied_mask
-from merging.refine import SmoothedMap, constraint_strength
 from merging.result import Hypothesis, MergeResult
-from merging.verdict import CLOSE_FACTORS, refusal_reason
-from merging.verify import ACCEPT_CONFIDENCE, confidence_factors, prepare_map, verify
 
 OCCUPIED_GREY = 0.0
 """Image intensity of an occupied cell: walls are dark, as a map is drawn."""

@@ -21,7 +21,7 @@ SURF approximates; ORB is added as the binary descriptor the ROS
 
 3. Match descriptors: mutual nearest neighbours that also pass Lowe's ratio
    test (:data:`MAX_RATIO`).
-4. Fit a rigid transform to the matches with RANSAC (:func:`merging.ransac.ransac_rigid`).
+4. Fit a rigid transform to the matches with RANSAC (:func:`merging.baselines.ransac.ransac_rigid`).
 
 The acceptance verdict comes from :func:`merging.baselines.common.verdict`.
 
@@ -62,7 +62,7 @@ from merging.baselines.common import (
     verdict,
 )
 from merging.baselines.patches import orientations, oriented_patches
-from merging.ransac import ransac_rigid
+from merging.baselines.ransac import ransac_rigid
 from merging.result import MergeResult
 
 MAX_KEYPOINTS = 500

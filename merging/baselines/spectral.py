@@ -12,7 +12,7 @@ The steps, each a function below:
    from the cross-correlation of the two maps' *x* and *y spectra*
    (projection histograms of the occupied cells).
 4. The hypotheses are ranked by Birk and Carpin's acceptance index
-   (:func:`merging.metrics.acceptance_index`) and the best is returned.
+   (:func:`merging.evaluation.metrics.acceptance_index`) and the best is returned.
 
 Choices not fixed by the original, and why:
 
@@ -46,10 +46,10 @@ from scipy import fft, signal
 
 from merging.api import register_method
 from merging.baselines.common import check_no_options, check_positive, verdict
+from merging.evaluation.metrics import acceptance_index
 from merging.grid import occupied_cells
-from merging.metrics import acceptance_index
+from merging.paper.sinogram import map_centre, project_points, sinogram_radius
 from merging.result import Hypothesis, MergeResult
-from merging.sinogram import map_centre, project_points, sinogram_radius
 from merging.transforms import rigid_matrix
 
 ANGLE_STEP_DEG = 0.25
@@ -67,7 +67,7 @@ def hough_spectrum(points: NDArray[np.float64], shape: tuple[int, int]) -> NDArr
 
     ``H`` is the Hough transform of ``points`` (``(N, 2)`` ``(x, y)`` cells of a
     map of ``shape``) about the map centre, ρ in one-cell bins; it is the
-    same line integral as the paper's sinogram (:func:`merging.sinogram.project_points`).
+    same line integral as the paper's sinogram (:func:`merging.paper.sinogram.project_points`).
     """
     angles = np.arange(0.0, 180.0, ANGLE_STEP_DEG)
     centre = map_centre(shape)

@@ -3,7 +3,7 @@
 A world's episodes are every combination of team size, policy, merge method
 and seed, less those whose outcome another episode already gives: a robot
 that is linked to nobody explores alone, and every policy then chooses its
-targets as ``nearest`` does (``tests/tomosim/test_coordination.py``), so
+targets as ``nearest`` does (``tests/tomosim/exploration/test_coordination.py``), so
 
 * a team of one runs with merging off only (its time is every method's), and
 * merging off runs with one policy only (its time is every policy's),
@@ -27,6 +27,7 @@ from typing import Any
 
 from exploration_study.worlds import StudyWorld
 from tomosim.sweep import NO_MERGE, ResultsFile, SweepPlan, run_sweep
+from tomosim.team import CommsConfig, TeamConfig
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,7 +50,7 @@ def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
         "worlds": (world.spec,),
         "seeds": grid.seeds,
         "steps": world.steps,
-        "comm_range": grid.comm_range,
+        "team": TeamConfig(comms=CommsConfig(grid.comm_range)),
     }
     out = []
     teams = tuple(n for n in grid.robots if n > 1)

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
-from tomosim.data import maps_dir, maps_missing
+from merging.catalog import find_map, is_map_path
 from tomosim.episode import EpisodeConfig
 
 DEFAULT_WORLDS = ("0", "1", "2", "aces3", "fr079")
@@ -27,7 +26,8 @@ class StudyWorld:
     token : str
         As given on the command line (a seed or a map name).
     spec : str
-        What :func:`tomosim.episode.load_world` takes: the seed or the YAML path.
+        What :func:`tomosim.episode.load_world` takes: the seed, the map's name, or the
+        YAML path.
     label : str
         Its name in tables and file names (``floor0``, ``aces3``).
     generated : bool
@@ -53,14 +53,13 @@ def resolve(token: str, steps: int | None = None) -> StudyWorld:
     """
     if token.isdigit():
         return StudyWorld(token, token, f"floor{token}", True, steps or FLOOR_STEPS)
-    if token.endswith((".yaml", ".yml")):
-        path = Path(token)
-    else:
-        folder = maps_dir()
-        if folder is None:
-            raise SystemExit(f"world {token!r}: {maps_missing()}")
-        path = folder / f"{token}.yaml"
+    try:
+        path = find_map(token)
+    except FileNotFoundError as exc:
+        raise SystemExit(f"world {token!r}: {exc}") from None
     if not path.is_file():
         raise SystemExit(f"world {token!r}: no map file {path}")
     cap = steps or REAL_MAP_STEPS.get(path.stem, EpisodeConfig.steps)
-    return StudyWorld(token, str(path), path.stem, False, cap)
+    # A map of the maps path is named by its name, which holds on every machine.
+    spec = str(path) if is_map_path(token) else token
+    return StudyWorld(token, spec, path.stem, False, cap)

@@ -12,6 +12,6 @@
   :mod:`.plotting` (matplotlib is optional).
 
 The pairs are built and the methods are called through :mod:`merging`
-(:mod:`merging.pairs`, :mod:`merging.metrics`, :mod:`merging.warp`,
+(:mod:`merging.evaluation.pairs`, :mod:`merging.evaluation.metrics`, :mod:`merging.warp`,
 :mod:`merging.paper`); nothing here re-implements them.
 """

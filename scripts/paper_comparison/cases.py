@@ -1,7 +1,7 @@
 """Build the pairs of maps to merge, row by row, with their truth.
 
 * **Sim.** The protocol of section 4.1: window pairs cut from one real map
-  (:func:`merging.pairs.cut_window_pairs`), the second turned by a random
+  (:func:`merging.evaluation.pairs.cut_window_pairs`), the second turned by a random
   angle and shifted; the truth is known exactly. ``aces3`` is the paper's
   building; further maps give extra rows.
 * **Exp. ap_hill.** The four robots' maps of one building, nearly in one
@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 import merging
+from merging.evaluation.pairs import cut_window_pairs
 from merging.grid import FREE, OCCUPIED, UNKNOWN, free_mask, occupied_mask
-from merging.pairs import cut_window_pairs
 from merging.transforms import rigid_matrix, translation_matrix
 from merging.warp import warp_cells
 from tomosim.data import maps_dir, maps_missing

@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 from scipy import fft
 
 import merging
+from merging.evaluation.metrics import transform_error
 from merging.grid import UNKNOWN, free_mask, occupied_mask
-from merging.metrics import transform_error
 from merging.transforms import rotation_about, translation_matrix
 from merging.warp import warp_cells
 

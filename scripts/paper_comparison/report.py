@@ -42,7 +42,8 @@ PAPER_COMPARISON = [
     "The paper reports a mean Ψ of 0.9457 for its method in simulation and 0.9393 on its "
     "experimental maps, at 7.62 s and 0.38 s per pair. Ψ cannot be compared one to one: the "
     "paper does not say whose occupied cells its N_overlap counts (we count the cells "
-    "occupied in either map, see `merging.metrics.matching_index`), and our ceiling, the Ψ "
+    "occupied in either map, see `merging.evaluation.metrics.matching_index`), and our "
+    "ceiling, the Ψ "
     "of the truth, is below 0.95 in simulation and far lower between different robots' "
     "maps, where the paper reports 0.94; its Ψ must be more lenient, for example counting "
     "one map's cells only or tolerating one-cell offsets. What carries over is the ranking "
@@ -88,7 +89,7 @@ def report(
     lines += [
         "",
         "No original baseline says whether its answer can be trusted; here every method's "
-        "`accepted` comes from the same verification (`merging.verify`: fit, amount of "
+        "`accepted` comes from the same verification (`merging.evidence.verify`: fit, amount of "
         "agreeing wall, constraint strength), so *accepted* means the same in every column.",
         "",
         "## Results",

@@ -19,11 +19,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 import merging
-from merging.metrics import match_indices, matching_index, transform_error
+from merging.evaluation.metrics import match_indices, matching_index, transform_error
 
 # The pairs module's own overlap ratio (the one cut_window_pairs filters on),
 # so that every row measures overlap as the Sim. pairs were selected by it.
-from merging.pairs import overlap_ratio
+from merging.evaluation.pairs import overlap_ratio
 
 from .cases import CaseGroup
 from .contenders import Contender

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from merging.grid import occupied_cells
-from merging.paper import (
+from merging.paper.method import (
     PAPER_ANGLES_DEG,
     axis_projections,
     coarse_translation,
@@ -21,7 +21,7 @@ from merging.paper import (
     rotation_from_maxima,
     sinogram_maximum,
 )
-from merging.sinogram import sinogram
+from merging.paper.sinogram import sinogram
 
 from .plotting import pyplot, save
 from .study import Case
@@ -53,7 +53,7 @@ def plot_partial_sinograms(case: Case, path: Path) -> None:
     """Figures 4 and 5: partial sinograms at α' = 180° and 90° and their cross-correlations.
 
     Map 2 is turned by the paper's rotation estimate (eq. 7, the 180° ambiguity
-    settled as :func:`merging.paper.paper_merge` does); the dashed line marks
+    settled as :func:`merging.paper.method.paper_merge` does); the dashed line marks
     the shift the truth implies for that rotation.
     """
     delta = rotation_from_maxima(

@@ -41,7 +41,8 @@ class Tolerance:
         return text + (f" and {self.degrees:g}°" if self.degrees < 180 else "")
 
     def admits(self, rms_cells: float, rotation_deg: float) -> bool:
-        """Whether an error (as :func:`merging.metrics.transform_error` gives it) is within.
+        """Whether an error is within (errors as
+        :func:`merging.evaluation.metrics.transform_error` gives them).
 
         NaN errors (no truth to measure against) are not within.
         """
@@ -132,7 +133,7 @@ class Answer:
     """One method's answer on a case, scored with both indices from one warp.
 
     ``matching_index`` is Ψ of eq. (31) and ``acceptance_index`` Birk and
-    Carpin's ω (:func:`merging.metrics.match_indices`).
+    Carpin's ω (:func:`merging.evaluation.metrics.match_indices`).
     """
 
     result: MergeResult

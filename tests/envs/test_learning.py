@@ -14,15 +14,16 @@ import numpy as np
 import pytest
 
 from envs import multi_robot_exploration_v0 as exploration
-from envs.baselines import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.observations import CHANNEL_ON
+from envs.scripted_agents import ConstantBaseline, FrontierBaseline, RandomBaseline
 from envs.vector import RL_INSTALL
 
 SMALL = {"world_size": (12.0, 9.0), "robots": 2}
 """A small floor with two robots: quick to step."""
 ROOT = Path(__file__).resolve().parents[2]
 HAVE_RL = all(
-    importlib.util.find_spec(name) for name in ("torch", "stable_baselines3", "supersuit")
+    importlib.util.find_spec(name)
+    for name in ("torch", "stable_baselines3", "supersuit", "tensorboard")
 )
 needs_rl = pytest.mark.skipif(not HAVE_RL, reason=f"needs the rl extra: {RL_INSTALL}")
 
@@ -56,6 +57,7 @@ def test_normalised_observations_are_images_and_unit_ranges() -> None:
         np.testing.assert_allclose(obs["pose"][2:], [np.cos(theta), np.sin(theta)], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_floors_draw_a_world_per_episode_from_the_seed() -> None:
     env = exploration.parallel_env(**SMALL, floors=exploration.TRAINING_FLOORS)
     worlds = []
@@ -94,6 +96,7 @@ def test_the_last_step_keeps_the_episode_s_figures() -> None:
     assert all("episode" not in info for info in reset_infos.values())
 
 
+@pytest.mark.slow
 def test_baselines_act_for_every_live_agent() -> None:
     coverage = {}
     for name, agents in (
@@ -125,6 +128,7 @@ def test_supersuit_vector_env_steps_every_robot_of_every_env() -> None:
     venv.close()
 
 
+@pytest.mark.slow
 @needs_rl
 def test_environments_in_processes_get_their_own_seeds_and_let_python_exit() -> None:
     # SuperSuit seeded process p's k-th environment with s + p + k: with two processes
@@ -151,6 +155,7 @@ def test_environments_in_processes_get_their_own_seeds_and_let_python_exit() -> 
     assert run.stdout.strip() == "seeded"
 
 
+@pytest.mark.slow
 @needs_rl
 def test_sb3_adapter_seeds_marks_truncation_and_keeps_final_infos() -> None:
     from envs.vector import make_sb3_vector_env
@@ -193,12 +198,15 @@ def test_sb3_adapter_names_each_entry_s_seed_and_renders() -> None:
         venv.close()
 
 
+@pytest.mark.slow
 @needs_rl
 def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
-    out = tmp_path / "ppo"
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    out, board = tmp_path / "ppo", tmp_path / "board"
     subprocess.run(
         [sys.executable, str(ROOT / "scripts" / "train_ppo.py"), "--smoke", "--timesteps", "128",
-         "--envs", "1", "--out", str(out)],
+         "--envs", "1", "--out", str(out), "--tensorboard", str(board)],
         check=True, cwd=tmp_path, capture_output=True, text=True,
     )  # fmt: skip
     summary = json.loads((out / "summary.json").read_text())
@@ -209,3 +217,12 @@ def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
     rows = (out / "learning_curve.csv").read_text().splitlines()
     assert rows[0].startswith("timesteps,") and len(rows) >= 2  # 40-step episodes ended
     assert (out / "learning_curve.png").stat().st_size > 0 and (out / "model.zip").exists()
+    events = EventAccumulator(str(board / "PPO_1"))
+    events.Reload()
+    tags = set(events.Tags()["scalars"])
+    assert "rollout/ep_rew_mean" in tags  # the episode return, from the episode info
+    for name in ("team_coverage", "path_length_m", "overlap_rate", "pairs_accepted"):
+        assert f"exploration/{name}" in tags
+    coverage = events.Scalars("exploration/team_coverage")
+    assert coverage and all(0.0 < point.value <= 1.0 for point in coverage)
+    assert coverage[-1].step <= summary["timesteps"]  # against agent-steps

@@ -14,6 +14,7 @@ from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, render
 import envs
 from envs import multi_robot_exploration_v0 as exploration
 from envs.multi_robot_exploration_v0 import MultiRobotExplorationEnv
+from tomosim.team import CommsConfig, TeamConfig
 
 SMALL = {"world_size": (12.0, 9.0), "robots": 2}
 """A small floor with two robots: quick to step."""
@@ -35,6 +36,7 @@ def test_parallel_api() -> None:
     parallel_api_test(small_env(), num_cycles=40)
 
 
+@pytest.mark.slow
 def test_aec_api() -> None:
     with warnings.catch_warnings():
         for message in DICT_OBSERVATION_WARNINGS:
@@ -46,6 +48,7 @@ def test_max_cycles() -> None:
     max_cycles_test(exploration)
 
 
+@pytest.mark.slow
 def test_render() -> None:
     render_test(lambda render_mode: exploration.env(**SMALL, render_mode=render_mode))
 
@@ -70,7 +73,7 @@ def test_human_mode_draws_each_step_into_its_figure() -> None:
 
 def rollout(seed: int, steps: int) -> list[tuple[Any, ...]]:
     """Everything a seeded episode returns under seeded random actions."""
-    env = small_env(merge_interval=50)
+    env = small_env(team=TeamConfig(merge_interval=50))
     observations, infos = env.reset(seed=seed)
     for k, agent in enumerate(env.possible_agents):
         env.action_space(agent).seed(100 + k)
@@ -81,6 +84,7 @@ def rollout(seed: int, steps: int) -> list[tuple[Any, ...]]:
     return trace
 
 
+@pytest.mark.slow
 def test_same_seed_rollouts_match_exactly() -> None:
     first, second = rollout(8, ROLLOUT_STEPS), rollout(8, ROLLOUT_STEPS)
     assert len(first) == ROLLOUT_STEPS + 1
@@ -92,6 +96,7 @@ def test_same_seed_rollouts_match_exactly() -> None:
     assert not data_equivalence(first[0][0], other[0][0], exact=True)
 
 
+@pytest.mark.slow
 def test_gymnasium_view_passes_the_checker() -> None:
     team = gymnasium.make(envs.ENV_ID, **SMALL)
     check_env(team.unwrapped)
@@ -149,7 +154,7 @@ def test_reaching_the_coverage_target_terminates_everyone() -> None:
 
 
 def test_merge_infos_carry_truth_errors_and_unused_merges_change_nothing() -> None:
-    env = small_env(merge_interval=5)
+    env = small_env(team=TeamConfig(merge_interval=5))
     env.reset(seed=2)
     for _ in range(5):
         *_, infos = env.step({a: np.array([0.3, 0.5], np.float32) for a in env.agents})
@@ -199,11 +204,9 @@ def test_a_start_that_already_meets_the_target_is_said(caplog: pytest.LogCapture
     ("option", "value"),
     [
         ("robots", True),
-        ("merge_interval", True),
-        ("merge", "no"),
         ("coverage_target", "0.5"),
         ("crop_resolution", float("nan")),
-        ("simulation", "x"),
+        ("team", "x"),
         ("floors", [1.7]),
     ],
 )
@@ -213,6 +216,29 @@ def test_options_of_the_wrong_kind_are_named(option: str, value: Any) -> None:
     options = {"world": 0} if option == "floors" else {}
     with pytest.raises(ValueError, match=option):
         exploration.parallel_env(**{**options, option: value})
+
+
+def test_every_team_setting_reaches_the_session_through_team() -> None:
+    team = TeamConfig(
+        confirmations=1,
+        share_interval=3,
+        tracking=False,
+        merge_worker=False,
+        comms=CommsConfig(5.0, line_of_sight=True),
+    )
+    env = small_env(team=team)
+    env.reset(seed=0)
+    assert env.session is not None and env.session.config is team
+    assert env.session.merger is not None and env.session.merger.config.confirmations == 1
+    assert env.session.shared.refresh_interval == 3
+    assert small_env().team_config == TeamConfig()  # the team's own defaults
+
+
+@pytest.mark.parametrize("option", ["merge", "merge_interval", "method", "simulation"])
+def test_a_team_setting_given_alone_names_the_team_argument(option: str) -> None:
+    value = getattr(TeamConfig(), option)
+    with pytest.raises(TypeError, match=rf"pass team=tomosim.team.TeamConfig\({option}="):
+        exploration.parallel_env(**{option: value})
 
 
 def test_world_size_is_refused_for_a_world_with_its_own_size(tmp_path) -> None:
@@ -260,7 +286,7 @@ def test_ctrl_c_inside_a_compiled_kernel_reaches_the_learner_as_itself(
         except BaseException as cause:
             raise SystemError("returned a result with an exception set") from cause
 
-    env = exploration.parallel_env(robots=2, merge=False)
+    env = exploration.parallel_env(robots=2, team=TeamConfig(merge=False))
     env.reset(seed=0)
     monkeypatch.setattr(TeamSession, "step", step)
     actions = {agent: np.zeros(2, np.float32) for agent in env.agents}

@@ -12,8 +12,7 @@ import merging
 from merging.grid import OccupancyGrid
 from merging.resample import to_resolution
 from merging.transforms import apply_transform
-
-from .conftest import UNMERGEABLE_CASES, unmergeable_pair
+from tests.merging.builders import UNMERGEABLE_CASES, unmergeable_pair
 
 
 @pytest.mark.parametrize(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import errno
-import os
 import time
 from pathlib import Path
 
@@ -23,23 +22,15 @@ from merging.mapio import (
     map_image,
     save_map,
 )
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
-"""The checkout's root (the folder holding pyproject.toml)."""
-MAPS_ENV = "TOMOSIM_MAPS"
-"""Environment variable naming the folder of real maps; default ``<repo root>/../shared/maps``."""
+from tests.support import maps_absent_reason, real_maps_dir
 
 
 @pytest.fixture(scope="module")
 def maps_dir() -> Path:
     """The folder of real ``map_server`` maps; skips the test when it is absent."""
-    configured = os.environ.get(MAPS_ENV)
-    folder = Path(configured) if configured else REPO_ROOT.parent / "shared" / "maps"
-    if not folder.is_dir():
-        pytest.skip(
-            f"real maps not found at {folder}; set {MAPS_ENV} to the shared maps folder "
-            "or place it at ../shared/maps beside the checkout"
-        )
+    folder = real_maps_dir()
+    if folder is None:
+        pytest.skip(maps_absent_reason())
     return folder
 
 

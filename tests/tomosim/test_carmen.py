@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy import ndimage, signal
 
+from merging.evaluation.metrics import acceptance_index, matching_index
 from merging.grid import OccupancyGrid
 from merging.mapio import load_map
-from merging.metrics import acceptance_index, matching_index
 from tomosim.carmen import CARMEN_MAX_RANGE, read_carmen
 from tomosim.data import datasets_dir, maps_dir
 from tomosim.mapping import LogOddsMap, MappingConfig
@@ -127,6 +127,7 @@ def test_reader_names_a_compressed_log_cut_short(tmp_path: Path) -> None:
         read_carmen(binary)
 
 
+@pytest.mark.slow
 def test_mapping_the_aces_log_reproduces_aces3() -> None:
     log_path, reference_path = aces_paths()
     log = read_carmen(log_path)

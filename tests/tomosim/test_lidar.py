@@ -8,7 +8,7 @@ import pytest
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.lidar_oracle import cast_pymunk
 from tomosim.physics import Physics, PhysicsConfig, build_space
-from tomosim.raycast import cast_segments
+from tomosim.ray_geometry import cast_segments
 from tomosim.worlds import generate_floorplan
 
 ORACLE_TOLERANCE = 1e-9
@@ -22,6 +22,7 @@ def square_room(half: float) -> np.ndarray:
     return np.array([[c[i], c[(i + 1) % 4]] for i in range(4)], dtype=float)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_numpy_caster_matches_pymunk_oracle(seed: int) -> None:
     world = generate_floorplan(seed)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from merging.evaluation.metrics import acceptance_index
 from merging.grid import OccupancyGrid
-from merging.metrics import acceptance_index
 from tomosim.lidar import Lidar, LidarConfig, Scan
-from tomosim.mapping import LogOddsMap, MappingConfig, integrate_rays
+from tomosim.mapping import LogOddsMap, MappingConfig, integrate_rays, update_maps
 from tomosim.worlds import world_from_map
 
 
@@ -154,7 +154,7 @@ def test_config_is_validated() -> None:
     ],
 )
 def test_config_refuses_values_that_are_not_finite(settings: dict[str, float]) -> None:
-    with pytest.raises(ValueError, match=f"{next(iter(settings))} must be finite"):
+    with pytest.raises(ValueError, match=f"{next(iter(settings))} must be a finite number"):
         MappingConfig(**settings)
 
 
@@ -162,7 +162,9 @@ def test_config_refuses_a_grid_no_memory_holds() -> None:
     # 5000 given as cells, not metres: 100000 cells a side at 0.05 m.
     with pytest.raises(ValueError, match=r"initial_extent of 5000\.0 m is 100000 cells"):
         MappingConfig(initial_extent=5000.0)
-    with pytest.raises(TypeError, match=r"resolution must be a number, got '0\.05'"):
+    with pytest.raises(
+        TypeError, match=r"resolution must be a positive number of metres, got '0\.05'"
+    ):
         MappingConfig(resolution="0.05")  # type: ignore[arg-type]
     assert MappingConfig(resolution=np.float32(0.1)).resolution == np.float32(0.1)
 
@@ -189,8 +191,8 @@ def test_hits_at_the_edge_of_the_grid_grow_it_first() -> None:
     ("angles", "ranges", "max_range", "match"),
     [
         (2, np.full(2000, 3.0), 8.0, "one angle per range"),  # read past the angles
-        (8, np.full(8, np.inf), np.nan, "max_range must be a finite"),
-        (8, np.full(8, np.inf), np.inf, "max_range must be a finite"),
+        (8, np.full(8, np.inf), np.nan, "max_range must be a positive number of metres"),
+        (8, np.full(8, np.inf), np.inf, "max_range must be a positive number of metres"),
         (None, np.full(8, 3.0), 8.0, "angle of a scan must be finite"),
         (8, np.full(8, -1.0), 8.0, "within \\[0, max_range\\]"),
         (8, np.full(8, 1e30), 8.0, "within \\[0, max_range\\]"),
@@ -205,3 +207,43 @@ def test_a_scan_that_does_not_add_up_is_refused(angles, ranges, max_range, match
     with pytest.raises(ValueError, match=match):
         grid_map.update((0.0, 0.0, 0.0), Scan(angles, ranges, max_range))
     assert not grid_map.observed.any()
+
+
+def test_updating_a_team_s_maps_at_once_equals_updating_each() -> None:
+    occupied = np.zeros((42, 62), dtype=bool)
+    occupied[0, :] = occupied[-1, :] = occupied[:, 0] = occupied[:, -1] = True
+    world = world_from_map(OccupancyGrid.from_bool(occupied, resolution=0.1))
+    lidar = Lidar(LidarConfig(beams=90, max_range=3.0), world.walls)
+    config = MappingConfig(initial_extent=2.0, growth_padding=0.5)  # grows on the way
+    together = [LogOddsMap(config) for _ in range(3)]
+    alone = [LogOddsMap(config) for _ in range(3)]
+    for grid_map in together + alone:
+        grid_map.start_journal()
+    rng = np.random.default_rng(2)
+    for _ in range(40):
+        poses = np.column_stack(
+            [rng.uniform(1.0, 5.0, 3), rng.uniform(1.0, 3.0, 3), rng.uniform(-3.0, 3.0, 3)]
+        )
+        ranges = np.stack([lidar.scan(pose, rng=rng).ranges for pose in poses])
+        update_maps(together, poses, lidar.angles, ranges, lidar.config.max_range)
+        for grid_map, pose, row in zip(alone, poses, ranges, strict=True):
+            grid_map.update(pose, Scan(lidar.angles, row, lidar.config.max_range))
+    for ours, theirs in zip(together, alone, strict=True):
+        assert ours.shape != (40, 40)  # the maps grew
+        np.testing.assert_array_equal(ours.logodds, theirs.logodds)
+        np.testing.assert_array_equal(ours.cells, theirs.cells)
+        np.testing.assert_array_equal(ours.take_journal(), theirs.take_journal())
+
+
+def test_updating_a_team_s_maps_refuses_rows_that_do_not_match() -> None:
+    maps = [LogOddsMap(), LogOddsMap()]
+    angles = np.linspace(-np.pi, np.pi, 8, endpoint=False)
+    ranges = np.ones((2, 8))
+    with pytest.raises(ValueError, match=r"shape \(2, 3\), got \(1, 3\)"):
+        update_maps(maps, np.zeros((1, 3)), angles, ranges, 8.0)
+    with pytest.raises(ValueError, match="poses must be finite"):
+        update_maps(maps, np.full((2, 3), np.nan), angles, ranges, 8.0)
+    with pytest.raises(ValueError, match="one row per map"):
+        update_maps(maps, np.zeros((2, 3)), angles, ranges[:1], 8.0)
+    with pytest.raises(ValueError, match="one angle per range"):
+        update_maps(maps, np.zeros((2, 3)), angles[:5], ranges, 8.0)

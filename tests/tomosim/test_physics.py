@@ -7,7 +7,7 @@ import pytest
 
 from merging.grid import OccupancyGrid
 from tomosim.physics import MAX_SUBSTEP_TRAVEL, Physics, PhysicsConfig
-from tomosim.raycast import distance_to_segments
+from tomosim.ray_geometry import distance_to_segments
 from tomosim.worlds import World, world_from_map
 
 SETTLED_OVERLAP = 0.01

@@ -8,8 +8,8 @@ import itertools
 import numpy as np
 import pytest
 
+from merging.evaluation.metrics import acceptance_index, matching_index
 from merging.grid import OccupancyGrid
-from merging.metrics import acceptance_index, matching_index
 from tomosim.evaluation import coverage, known_in_world
 from tomosim.frames import place_grid, pose_matrix
 from tomosim.odometry import Odometry, OdometryConfig, compose, relative_motion

@@ -65,3 +65,48 @@ def check_writable(output: Path, *, option: str) -> None:
             f"cannot write {output}: folder {folder} is not writable; give {option} a path "
             "in a folder you can write to"
         )
+
+
+MAP_FILE_SUFFIXES = (".yaml", ".yml")
+"""Suffixes of a map_server YAML file, the file a world option may name."""
+
+
+def world_spec(text: str, *, option: str) -> int | str | Path:
+    """What a world option names: a floor plan's seed, a map's name, or a map's YAML file.
+
+    Raises :class:`UsageError` for a file that cannot be a map's YAML (an image,
+    say); whether a name or a file exists is :func:`check_world`'s question.
+    """
+    stripped = text.strip()
+    if stripped.isdigit():
+        return int(stripped)
+    suffix = Path(stripped).suffix
+    if suffix in MAP_FILE_SUFFIXES:
+        return Path(stripped)
+    if suffix or not stripped:
+        raise UsageError(
+            f"{option} must be a seed (a whole number >= 0), a map's name ('tomosim maps' "
+            f"lists them) or a map_server .yaml file, got {text!r}"
+        )
+    return stripped
+
+
+def check_world(world: int | str | Path, *, option: str) -> None:
+    """Raise :class:`CommandError` when the map ``world`` names is not there.
+
+    A name is looked up in the maps path (:func:`merging.catalog.find_map`;
+    the message lists the folders searched); a file must exist.
+    """
+    from merging.catalog import find_map
+
+    if isinstance(world, int):
+        return
+    try:
+        path = find_map(world)
+    except FileNotFoundError as exc:
+        raise CommandError(f"{option} {world}: {exc}") from None
+    if not path.is_file():
+        raise CommandError(
+            f"{option} {world}: no such map file; give a map_server .yaml file, a map's "
+            "name or a floor-plan seed"
+        )

@@ -2,7 +2,7 @@
 
 Both maps are cut from the ground-truth grid of
 :func:`tomosim.worlds.generate_floorplan` with the protocol of section 4.1 of
-the paper (:func:`merging.pairs.cut_window_pairs`): two overlapping windows,
+the paper (:func:`merging.evaluation.pairs.cut_window_pairs`): two overlapping windows,
 the second rotated by a random angle and shifted, so the true transform
 between them is known.
 """
@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging import OccupancyGrid
-from merging.pairs import cut_window_pairs
+from merging.evaluation.pairs import cut_window_pairs
 from tomosim.worlds import generate_floorplan
 
 DEMO_SEED = 0

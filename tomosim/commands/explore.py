@@ -21,18 +21,25 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
 from PIL import Image
 
-from merging.api import DEFAULT_METHOD
-from tomosim.commands import CommandError, UsageError, check_writable, one_line
+from merging.validators import real_number, whole_number
+from tomosim.commands import (
+    CommandError,
+    UsageError,
+    check_world,
+    check_writable,
+    one_line,
+    world_spec,
+)
 from tomosim.commands.explore_report import render_summary
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
+from tomosim.commands.team_options import DEFAULT_TEAM, add_team_arguments, team_config
 from tomosim.episode import DEFAULT_WORLD_SEED, EpisodeConfig, run_episode
 from tomosim.exploration import chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
@@ -65,8 +72,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world",
         default=str(DEFAULT_WORLD_SEED),
-        help="a generated floor plan's seed, or a map_server YAML file "
-        f"(default: floor plan {DEFAULT_WORLD_SEED}, 30 m x 20 m)",
+        help="a generated floor plan's seed, a map's name ('tomosim maps' lists them) or a "
+        f"map_server YAML file (default: floor plan {DEFAULT_WORLD_SEED}, 30 m x 20 m)",
     )
     parser.add_argument(
         "--robots",
@@ -87,32 +94,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"most steps of 0.1 s to run (default {DEFAULTS.steps})",
     )
     parser.add_argument(
-        "--merge-interval",
-        type=int,
-        default=DEFAULTS.merge_interval,
-        help=f"steps between merge rounds (default {DEFAULTS.merge_interval}, "
-        f"{DEFAULTS.merge_interval / 10:g} s)",
-    )
-    parser.add_argument(
         "--method",
-        default=DEFAULT_METHOD,
+        default=DEFAULT_TEAM.method,
         help=f"merging method: {', '.join(team_methods())}; {ORACLE} merges with the true "
-        f"start poses, the upper bound (default {DEFAULT_METHOD})",
+        f"start poses, the upper bound (default {DEFAULT_TEAM.method})",
     )
     parser.add_argument(
         "--no-merge", action="store_true", help="explore without merging (the lower bound)"
     )
-    parser.add_argument(
-        "--comm-range",
-        type=float,
-        default=None,
-        metavar="METRES",
-        help="robots exchange maps, poses and targets, and merge, only within this range, "
-        "directly or through teammates in range (default unlimited)",
-    )
-    parser.add_argument(
-        "--line-of-sight", action="store_true", help="walls block communication (with --comm-range)"
-    )
+    add_team_arguments(parser)
     parser.add_argument(
         "--coverage-target",
         type=float,
@@ -175,17 +165,13 @@ def add_live_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def check_episode_options(args: argparse.Namespace) -> None:
-    """The options ``explore`` and ``sweep`` share: :class:`UsageError` naming a bad one."""
-    if args.steps < 1:
-        raise UsageError(f"--steps must be at least 1, got {args.steps}")
-    if args.merge_interval < 1:
-        raise UsageError(f"--merge-interval must be at least 1 step, got {args.merge_interval}")
-    if not 0.0 < args.coverage_target <= 1.0:
-        raise UsageError(f"--coverage-target must be in (0, 1], got {args.coverage_target}")
-    if args.comm_range is not None and not (math.isfinite(args.comm_range) and args.comm_range > 0):
-        raise UsageError(f"--comm-range must be a positive number of metres, got {args.comm_range}")
-    if args.line_of_sight and args.comm_range is None:
-        raise UsageError("--line-of-sight needs --comm-range")
+    """The episode options ``explore`` and ``sweep`` share: :class:`UsageError` naming a bad
+    one (the team's are :func:`~tomosim.commands.team_options.team_config`'s)."""
+    try:
+        whole_number(args.steps, "--steps", minimum=1)
+        real_number(args.coverage_target, "--coverage-target", low=0.0, high=1.0, low_open=True)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
 
 
 def build_config(args: argparse.Namespace) -> EpisodeConfig:
@@ -204,7 +190,7 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"--web-port and --grpc-port must differ, got {args.web_port} for both")
     if args.no_record and args.record != DEFAULT_RECORD:
         raise UsageError("give either --record or --no-record, not both")
-    if args.no_merge and args.method != DEFAULT_METHOD:
+    if args.no_merge and args.method != DEFAULT_TEAM.method:
         raise UsageError(f"--no-merge explores without merging; drop --method {args.method}")
     if args.seed < 0:
         raise UsageError(f"--seed must be a non-negative integer, got {args.seed}")
@@ -217,25 +203,16 @@ def build_config(args: argparse.Namespace) -> EpisodeConfig:
         raise UsageError(f"unknown policy {args.policy!r}; choose one of: {choices}")
     if args.record.suffix != ".rrd":
         raise UsageError(f"--record must name an .rrd file, got {args.record}")
-    world: int | Path = int(args.world) if args.world.strip().isdigit() else Path(args.world)
-    if isinstance(world, Path) and world.suffix not in (".yaml", ".yml"):
-        raise UsageError(
-            f"--world must be a seed (a whole number >= 0) or a map_server .yaml file, "
-            f"got {args.world!r}"
-        )
+    world = world_spec(args.world, option="--world")
     return EpisodeConfig(
         world=world,
         robots=args.robots,
         policy=args.policy,
         steps=args.steps,
-        merge=not args.no_merge,
-        merge_interval=args.merge_interval,
-        method=args.method,
         coverage_target=args.coverage_target,
-        comm_range=args.comm_range,
-        line_of_sight=args.line_of_sight,
         seed=args.seed,
         record=None if args.no_record else args.record,
+        team=team_config(args, merge=not args.no_merge, method=args.method),
     )
 
 
@@ -254,11 +231,7 @@ def live_viewer(args: argparse.Namespace) -> LiveViewer | None:
 def run(args: argparse.Namespace) -> int:
     """Run the episode and print its summary; returns the exit status."""
     config = build_config(args)
-    if isinstance(config.world, Path) and not config.world.is_file():
-        raise CommandError(
-            f"--world {config.world}: no such map file; give a map_server .yaml file or a "
-            "floor-plan seed"
-        )
+    check_world(config.world, option="--world")
     live = live_viewer(args)
     if config.record is not None:
         check_writable(config.record, option="--record")

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from tomosim.episode import EpisodeConfig, EpisodeMetrics
+from tomosim.episode import DEFAULT_COVERAGE_TARGET, EpisodeMetrics
 from tomosim.recording import RecordedRun
 from tomosim.recording.paths import (
     OVERLAP_RATE,
@@ -44,7 +44,7 @@ class PairSummary:
     confirmed_errors: tuple[tuple[float, float], ...]
 
 
-DEFAULT_TARGET = EpisodeConfig.coverage_target
+DEFAULT_TARGET = DEFAULT_COVERAGE_TARGET
 """Coverage target assumed for a recording whose settings do not name one."""
 DEFAULT_DT = 0.1
 """Simulated seconds per step assumed for a recording whose settings do not name them."""

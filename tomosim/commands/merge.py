@@ -28,6 +28,7 @@ from PIL import Image
 
 from merging import OccupancyGrid, available_methods, check_method, load_map, merge_all, save_map
 from merging.api import DEFAULT_METHOD
+from merging.catalog import find_map
 from merging.mapio import map_image
 from merging.resample import common_resolution
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
@@ -46,7 +47,11 @@ DEFAULT_SEED = 0
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the command's arguments on its subparser."""
-    parser.add_argument("maps", nargs="*", type=Path, help="two or more map_server YAML files")
+    parser.add_argument(
+        "maps",
+        nargs="*",
+        help="two or more maps: map_server YAML files, or names of maps ('tomosim maps')",
+    )
     parser.add_argument(
         "-o",
         "--output",
@@ -86,7 +91,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Merge the maps named by ``args`` and print the report; returns the exit status."""
-    paths: list[Path] = list(args.maps)
+    paths = [map_path(source) for source in args.maps]
     output: Path = args.output
     check_arguments(args, paths, output)
     check_writable(output, option="-o")
@@ -156,6 +161,14 @@ def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -
     target = output.resolve()
     if any(path.resolve() == target for path in paths):
         raise UsageError(f"output {output} is also an input; choose another output file")
+
+
+def map_path(source: str) -> Path:
+    """The YAML file of an input map given by path or by name (:func:`merging.catalog.find_map`)."""
+    try:
+        return find_map(source)
+    except FileNotFoundError as exc:
+        raise CommandError(one_line(exc)) from exc
 
 
 def read_map(path: Path) -> OccupancyGrid:

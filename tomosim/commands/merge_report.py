@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging import MergeAllResult, OccupancyGrid, cells_to_metres, matrix_to_pose
-from merging.metrics import transform_error
+from merging.evaluation.metrics import transform_error
 
 
 def fixed(value: float, digits: int) -> str:

@@ -26,7 +26,7 @@ TRACEBACK_VARIABLE = "TOMOSIM_TRACEBACK"
 """Set to 1 to see the traceback behind a script's one-line error."""
 
 
-def _whole(text: str) -> int:
+def _parse_int(text: str) -> int:
     try:
         return int(text)
     except ValueError:
@@ -35,7 +35,7 @@ def _whole(text: str) -> int:
 
 def positive_int(text: str) -> int:
     """An ``argparse`` type: a whole number of at least 1."""
-    value = _whole(text)
+    value = _parse_int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {value}")
     return value
@@ -43,7 +43,7 @@ def positive_int(text: str) -> int:
 
 def non_negative_int(text: str) -> int:
     """An ``argparse`` type: a whole number of at least 0 (a seed, or a count that may be 0)."""
-    value = _whole(text)
+    value = _parse_int(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {value}")
     return value

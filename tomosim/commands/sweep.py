@@ -22,10 +22,18 @@ import os
 from pathlib import Path
 from typing import Any
 
-from tomosim.commands import CommandError, UsageError, check_writable, one_line
+from tomosim.commands import (
+    CommandError,
+    UsageError,
+    check_world,
+    check_writable,
+    one_line,
+    world_spec,
+)
 from tomosim.commands.explore import MAX_ROBOTS, check_episode_options
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
+from tomosim.commands.team_options import add_team_arguments, team_config
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, WorkerDied, run_sweep
@@ -43,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     methods = ", ".join([*team_methods(), NO_MERGE])
     parser.add_argument(
         "--worlds", nargs="+", default=list(plan.worlds), metavar="WORLD",
-        help="generated floor-plan seeds and/or map_server YAML files "
+        help="generated floor-plan seeds, map names ('tomosim maps') and/or map_server YAML files "
         f"(default: {' '.join(plan.worlds)})",
     )  # fmt: skip
     parser.add_argument(
@@ -69,10 +77,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"most steps of 0.1 s per episode (default {plan.steps})",
     )  # fmt: skip
     parser.add_argument(
-        "--merge-interval", type=int, default=plan.merge_interval,
-        help=f"steps between merge rounds (default {plan.merge_interval})",
-    )  # fmt: skip
-    parser.add_argument(
         "--coverage-target", type=float, default=plan.coverage_target,
         help="an episode ends when the team knows this fraction of the free space "
         f"(default {plan.coverage_target})",
@@ -81,14 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--world-size", nargs=2, type=float, metavar=("WIDTH", "HEIGHT"),
         help="size in metres of generated floor plans (default 30 20)",
     )  # fmt: skip
-    parser.add_argument(
-        "--comm-range", type=float, metavar="METRES",
-        help="robots talk only within this range, or through teammates in range "
-        "(default unlimited)",
-    )  # fmt: skip
-    parser.add_argument(
-        "--line-of-sight", action="store_true", help="walls block communication"
-    )  # fmt: skip
+    add_team_arguments(parser)
     parser.add_argument(
         "--out", type=Path, required=True,
         help="CSV file the rows go to, one per finished episode; its folder must exist",
@@ -128,8 +125,7 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
             f"{MAX_ROBOTS} robots)"
         )
     for world in args.worlds:
-        if not (world.strip().isdigit() or Path(world).suffix in (".yaml", ".yml")):
-            raise UsageError(f"--worlds must be seeds or map_server .yaml files, got {world!r}")
+        world_spec(world, option="--worlds")
     negative = [seed for seed in args.seeds if seed < 0]
     if negative:
         raise UsageError(f"--seeds must be non-negative integers, got {negative[0]}")
@@ -149,11 +145,9 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
             methods=tuple(args.methods),
             seeds=tuple(args.seeds),
             steps=args.steps,
-            merge_interval=args.merge_interval,
             coverage_target=args.coverage_target,
             world_size=None if args.world_size is None else tuple(args.world_size),
-            comm_range=args.comm_range,
-            line_of_sight=args.line_of_sight,
+            team=team_config(args),
             record_dir=args.record_dir,
         )
     except ValueError as exc:
@@ -167,6 +161,8 @@ def run(args: argparse.Namespace) -> int:
         episodes = plan.episodes()
     except ValueError as exc:
         raise UsageError(one_line(exc)) from exc
+    for world in plan.worlds:
+        check_world(world_spec(world, option="--worlds"), option="--worlds")
     check_writable(args.out, option="--out")
     if args.record_dir is not None and not args.record_dir.absolute().parent.is_dir():
         raise CommandError(

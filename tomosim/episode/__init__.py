@@ -3,11 +3,17 @@
 * :mod:`tomosim.episode.config`: :class:`EpisodeConfig` and :func:`load_world`;
 * :mod:`tomosim.episode.runner`: :func:`run_episode`, which builds the world,
   the team, the policies and (when asked) the recording from a configuration;
-* :mod:`tomosim.episode.metrics`: :class:`EpisodeMetrics`, what it returns.
+* :mod:`tomosim.episode.outcome`: :class:`EpisodeMetrics`, what it returns.
 """
 
-from tomosim.episode.config import DEFAULT_WORLD_SEED, EpisodeConfig, load_world
-from tomosim.episode.metrics import EpisodeMetrics, MergeRound, odometry_drift
+from tomosim.episode.config import (
+    DEFAULT_COVERAGE_TARGET,
+    DEFAULT_ROBOTS,
+    DEFAULT_WORLD_SEED,
+    EpisodeConfig,
+    load_world,
+)
+from tomosim.episode.outcome import EpisodeMetrics, MergeRound, odometry_drift
 from tomosim.episode.runner import (
     STOP_FINISHED,
     STOP_STEPS,
@@ -17,6 +23,8 @@ from tomosim.episode.runner import (
 )
 
 __all__ = [
+    "DEFAULT_COVERAGE_TARGET",
+    "DEFAULT_ROBOTS",
     "DEFAULT_WORLD_SEED",
     "STOP_FINISHED",
     "STOP_STEPS",

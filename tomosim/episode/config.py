@@ -1,46 +1,56 @@
 """What defines an episode: the world it explores and its settings.
 
 A world is named by a generated floor plan's seed or a ``map_server`` YAML
-file (:func:`load_world`); :class:`EpisodeConfig` holds everything else.
+file (:func:`load_world`); :class:`EpisodeConfig` holds everything else: the
+team size, the policy, when the episode ends, its seed and, in its ``team``
+(:class:`~tomosim.team.TeamConfig`), every setting of the team.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from merging.api import DEFAULT_METHOD
+from merging.catalog import find_map
+from merging.validators import SettingTypeError, one_of, real_number, whole_number
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
-from tomosim.simulation import SimulationConfig
-from tomosim.team.comms import CommsConfig
-from tomosim.team.oracle import check_team_method
+from tomosim.team.config import TeamConfig
 from tomosim.worlds import World, generate_floorplan, world_from_map
 
 DEFAULT_WORLD_SEED = 0
 """Seed of the generated floor plan explored by default."""
+DEFAULT_ROBOTS = 3
+"""Robots of a team unless told otherwise: the smallest team in which linking can check
+one pair's transform against the chain through a third map (:func:`merging.link_maps`,
+step 2)."""
+DEFAULT_COVERAGE_TARGET = 0.9
+"""Fraction of the free space at which an episode ends unless told otherwise, in the
+episode runner, the environment and sweeps alike: the project's exploration figures
+are times to 90 % coverage (``docs/figures/study_exploration``)."""
 
 
 def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = None) -> World:
-    """The world named by ``spec``: a generated floor plan's seed, or a map_server YAML file.
+    """The world named by ``spec``: a generated floor plan's seed, a map's name or its YAML file.
 
     Parameters
     ----------
     spec : int, str or Path
         A non-negative integer (or a string of digits) is the seed of
-        :func:`~tomosim.worlds.generate_floorplan`; anything else is the path
-        of a ``map_server`` YAML file (:func:`~tomosim.worlds.world_from_map`).
+        :func:`~tomosim.worlds.generate_floorplan`; a name such as ``"aces3"``
+        is a map of the maps path (:func:`merging.catalog.find_map`; ``tomosim
+        maps`` lists them); a path is a ``map_server`` YAML file
+        (:func:`~tomosim.worlds.world_from_map`).
     size : (float, float), optional
         Width and height in metres of a generated floor plan (default 30 x 20).
 
     Raises
     ------
     FileNotFoundError
-        If the map file does not exist.
+        If the map file does not exist, or no folder of the maps path holds a
+        map of that name (the message lists the folders searched).
     ValueError
         If the seed is negative or the map file cannot be read.
     """
@@ -52,11 +62,26 @@ def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = Non
         width, height = size if size is not None else (None, None)
         return generate_floorplan(int(spec), width=width, height=height)
     if not isinstance(spec, str | Path):
-        raise TypeError(f"world must be a seed or a map file path, got {type(spec).__name__}")
-    path = Path(spec)
+        raise TypeError(
+            f"world must be a seed, a map name or a map file path, got {type(spec).__name__}"
+        )
+    path = find_map(spec)
     if not path.is_file():
         raise FileNotFoundError(f"map file not found: {path}")
     return world_from_map(path)
+
+
+def _check_world_size(size: tuple[float, float]) -> None:
+    """Raise naming ``world_size`` unless ``size`` is two positive numbers of metres."""
+    message = f"world_size must be (width, height), two positive numbers of metres, got {size!r}"
+    sides = tuple(size)
+    if len(sides) != 2:
+        raise ValueError(message)
+    for side in sides:
+        try:
+            real_number(side, "world_size", low=0.0, low_open=True, unit="metres")
+        except ValueError:
+            raise ValueError(message) from None
 
 
 @dataclass(frozen=True)
@@ -70,7 +95,7 @@ class EpisodeConfig:
     world_size : (float, float) or None
         Width and height in metres of a generated floor plan (None: 30 x 20).
     robots : int
-        Number of robots.
+        Number of robots (:data:`DEFAULT_ROBOTS`).
     policy : str
         Exploration policy: how robots choose frontiers
         (:func:`~tomosim.exploration.chooser_names`).
@@ -78,100 +103,64 @@ class EpisodeConfig:
         Most steps to run (``simulation.dt`` of simulated time each, 0.1 s by
         default). The default, 200 s simulated, lets four robots explore 90 %
         of ``aces3`` (1120 m²).
-    merge : bool
-        Whether the robots' maps are merged.
-    merge_interval : int
-        Steps between merge rounds.
-    method : str
-        Merging method, or ``"oracle"`` (the true start poses;
-        :mod:`tomosim.team.oracle`).
     coverage_target : float
-        Fraction of the free space at which the episode ends.
-    comm_range : float or None
-        Metres over which robots can talk (None: unlimited; :mod:`tomosim.team.comms`).
-    line_of_sight : bool
-        Whether walls block communication (needs ``comm_range``).
+        Fraction of the free space at which the episode ends
+        (:data:`DEFAULT_COVERAGE_TARGET`).
     seed : int
         Seed of everything random in the episode (start poses, sensors, merging).
     record : Path or None
         ``.rrd`` file to record the episode to (None: no recording).
-    simulation : SimulationConfig
-        Robots, lidar, odometry and mapping (defaults as documented there).
+    team : TeamConfig
+        Every setting of the team: merging (on or off, method, interval,
+        confirmation, tracking), map sharing, communication range and the
+        simulation (defaults as documented there).
     """
 
     world: int | str | Path = DEFAULT_WORLD_SEED
     world_size: tuple[float, float] | None = None
-    robots: int = 3
+    robots: int = DEFAULT_ROBOTS
     policy: str = DEFAULT_POLICY
     steps: int = 2000
-    merge: bool = True
-    merge_interval: int = 50
-    method: str = DEFAULT_METHOD
-    coverage_target: float = 0.9
-    comm_range: float | None = None
-    line_of_sight: bool = False
+    coverage_target: float = DEFAULT_COVERAGE_TARGET
     seed: int = 0
     record: Path | None = None
-    simulation: SimulationConfig = field(default_factory=SimulationConfig)
+    team: TeamConfig = field(default_factory=TeamConfig)
 
     def __post_init__(self) -> None:
-        for name in ("robots", "steps", "merge_interval"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not (isinstance(value, int | np.integer) and value >= 1):
-                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
-        if isinstance(self.seed, bool) or not (
-            isinstance(self.seed, int | np.integer) and self.seed >= 0
-        ):
-            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
-        target = self.coverage_target
-        if isinstance(target, bool) or not isinstance(target, numbers.Real):
-            raise TypeError(f"coverage_target must be a number in (0, 1], got {target!r}")
-        if not (0.0 < target <= 1.0):
-            raise ValueError(f"coverage_target must be in (0, 1], got {target}")
+        whole_number(self.robots, "robots", minimum=1)
+        whole_number(self.steps, "steps", minimum=1)
+        whole_number(self.seed, "seed", minimum=0)
+        real_number(self.coverage_target, "coverage_target", low=0.0, high=1.0, low_open=True)
         world = self.world
         if isinstance(world, bool) or not isinstance(world, int | np.integer | str | Path):
-            raise TypeError(
+            raise SettingTypeError(
                 f"world must be a seed or a map file path, got {type(self.world).__name__}"
             )
         if self.world_size is not None:
-            sides = tuple(self.world_size)
-            if len(sides) != 2 or not all(
-                isinstance(side, numbers.Real)
-                and not isinstance(side, bool)
-                and math.isfinite(side)
-                and side > 0
-                for side in sides
-            ):
-                raise ValueError(
-                    f"world_size must be (width, height), two positive numbers of metres, "
-                    f"got {self.world_size!r}"
-                )
-        if self.policy not in chooser_names():
-            choices = ", ".join(chooser_names())
-            raise ValueError(
-                f"unknown exploration policy {self.policy!r}; choose one of: {choices}"
-            )
-        check_team_method(self.method)
-        self.comms()  # validates the range
+            _check_world_size(self.world_size)
+        one_of(self.policy, chooser_names(), what="exploration policy")
+        if not isinstance(self.team, TeamConfig):
+            raise SettingTypeError(f"team must be a TeamConfig, got {type(self.team).__name__}")
 
-    def comms(self) -> CommsConfig:
-        """The team's communication settings."""
-        return CommsConfig(self.comm_range, self.line_of_sight)
+    def with_team(self, **changes: Any) -> EpisodeConfig:
+        """A copy whose team has ``changes``: ``config.with_team(merge=False)``."""
+        return replace(self, team=replace(self.team, **changes))
 
     def settings(self, world: World) -> dict[str, Any]:
         """Plain values describing the episode (recorded with it and printed in reports)."""
+        team = self.team
         return {
             "world": world.name,
             "world_spec": str(self.world),
             "robots": int(self.robots),
             "policy": self.policy,
             "steps": int(self.steps),
-            "merge": bool(self.merge),
-            "merge_interval": int(self.merge_interval),
-            "method": self.method,
+            "merge": bool(team.merge),
+            "merge_interval": int(team.merge_interval),
+            "method": team.method,
             "coverage_target": float(self.coverage_target),
-            "comm_range": None if self.comm_range is None else float(self.comm_range),
-            "line_of_sight": bool(self.line_of_sight),
+            "comm_range": None if team.comms.range is None else float(team.comms.range),
+            "line_of_sight": bool(team.comms.line_of_sight),
             "seed": int(self.seed),
-            "dt": float(self.simulation.dt),
+            "dt": float(team.simulation.dt),
         }

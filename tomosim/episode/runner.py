@@ -3,7 +3,7 @@
 :func:`run_episode` builds everything from an :class:`EpisodeConfig` (the
 world, a :class:`~tomosim.team.TeamSession`, a
 :class:`~tomosim.exploration.TeamExplorer` running the configured policy,
-an :class:`~tomosim.episode.tracking.ExplorationTracker` and, when asked, a
+an :class:`~tomosim.episode.exploration_tracker.ExplorationTracker` and, when asked, a
 recording) and runs until the first of
 
 * the team knows ``coverage_target`` of the world's free space,
@@ -25,10 +25,10 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from tomosim.episode.config import EpisodeConfig, load_world
-from tomosim.episode.metrics import EpisodeMetrics, MergeRound, odometry_drift
-from tomosim.episode.tracking import ExplorationTracker
+from tomosim.episode.exploration_tracker import ExplorationTracker
+from tomosim.episode.outcome import EpisodeMetrics, MergeRound, odometry_drift
 from tomosim.exploration import TeamExplorer
-from tomosim.team.session import TeamConfig, TeamSession
+from tomosim.team.session import TeamSession
 
 if TYPE_CHECKING:
     from tomosim.recording import Recorder
@@ -68,14 +68,7 @@ def run_episode(
     """
     clock = time.perf_counter()
     world = load_world(config.world, size=config.world_size)
-    team = TeamConfig(
-        merge=config.merge,
-        method=config.method,
-        merge_interval=config.merge_interval,
-        comms=config.comms(),
-        simulation=config.simulation,
-    )
-    session = TeamSession(world, robots=config.robots, config=team, rng=config.seed)
+    session = TeamSession(world, robots=config.robots, config=config.team, rng=config.seed)
     settings = config.settings(world)
     owned = None
     if recorder is None and config.record is not None:

@@ -6,18 +6,12 @@ path following, and a team of such robots.
 >>> team = TeamExplorer(3, policy="utility")  # team.act(session) -> (3, 2) commands
 """
 
+from tomosim.exploration.choosers import CHOOSERS, chooser_names, make_chooser
 from tomosim.exploration.controller import ControllerConfig, PathFollower
 from tomosim.exploration.frontiers import Frontier, coarsen, frontier_clusters, frontier_mask
 from tomosim.exploration.planning import PlannerConfig, PlanningGrid, Wavefront, planning_grid
 from tomosim.exploration.policy import ExplorationConfig, FrontierPolicy
-from tomosim.exploration.targets import (
-    CHOOSERS,
-    Candidate,
-    TargetChooser,
-    Teammate,
-    chooser_names,
-    make_chooser,
-)
+from tomosim.exploration.targets import Candidate, TargetChooser, Teammate
 from tomosim.exploration.team import DEFAULT_POLICY, TeamExplorer
 
 __all__ = [

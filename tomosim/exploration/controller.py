@@ -21,7 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.validators import real_number
 from tomosim.lidar import Scan
+from tomosim.robot import ROBOT_RADIUS_M
 
 
 @dataclass(frozen=True)
@@ -55,7 +57,7 @@ class ControllerConfig:
     goal_tolerance: float = 0.3
     stop_distance: float = 0.1
     guard_half_angle: float = math.radians(35.0)
-    robot_radius: float = 0.2
+    robot_radius: float = ROBOT_RADIUS_M
 
     def __post_init__(self) -> None:
         for name in (
@@ -66,12 +68,9 @@ class ControllerConfig:
             "guard_half_angle",
             "robot_radius",
         ):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
-        if not 0 < self.cruise <= 1:
-            raise ValueError(f"cruise must be a command in (0, 1], got {self.cruise}")
-        if self.stop_distance < 0:
-            raise ValueError(f"stop_distance must be >= 0 metres, got {self.stop_distance}")
+            real_number(getattr(self, name), name, low=0.0, low_open=True)
+        real_number(self.cruise, "cruise", low=0.0, high=1.0, low_open=True)
+        real_number(self.stop_distance, "stop_distance", low=0.0, unit="metres")
 
 
 def front_clearance(scan: Scan, half_angle: float) -> float:

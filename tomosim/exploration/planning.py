@@ -21,7 +21,9 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from merging.grid import OCCUPIED_THRESHOLD, OccupancyGrid
+from merging.validators import real_number
 from tomosim.exploration.frontiers import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL, coarsen
+from tomosim.robot import ROBOT_RADIUS_M
 
 CROP_MARGIN_CELLS = 2
 """Planning-grid cells kept around the known area when cropping the wavefront."""
@@ -55,7 +57,7 @@ class PlannerConfig:
     """
 
     resolution: float = 0.1
-    robot_radius: float = 0.2
+    robot_radius: float = ROBOT_RADIUS_M
     inflation_margin: float = 0.1
     wall_penalty_distance: float = 0.8
     wall_penalty: float = 4.0
@@ -69,11 +71,9 @@ class PlannerConfig:
                 f"{self.free_below} and {self.occupied_from}"
             )
         for name in ("resolution", "robot_radius"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive (metres), got {getattr(self, name)}")
+            real_number(getattr(self, name), name, low=0.0, low_open=True, unit="metres")
         for name in ("inflation_margin", "wall_penalty_distance", "wall_penalty"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
+            real_number(getattr(self, name), name, low=0.0)
 
 
 @dataclass(frozen=True)

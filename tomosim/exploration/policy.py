@@ -11,7 +11,7 @@ Each call of :meth:`FrontierPolicy.act` returns one command. Every
    :mod:`~tomosim.exploration.targets`);
 4. lets its *target chooser* pick a cell, from the candidates and what it
    knows of its teammates (by default the nearest cluster, less a bonus for
-   its size; :data:`~tomosim.exploration.targets.CHOOSERS`), and follows the
+   its size; :data:`~tomosim.exploration.choosers.CHOOSERS`), and follows the
    path there (:mod:`~tomosim.exploration.controller`).
 
 The target is kept until it is reached or stops being a frontier, so that
@@ -40,10 +40,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
+from merging.validators import real_number, whole_number
+from tomosim.exploration.choosers import make_chooser
 from tomosim.exploration.controller import ControllerConfig, PathFollower
 from tomosim.exploration.frontiers import frontier_clusters
 from tomosim.exploration.planning import PlannerConfig, PlanningGrid, Wavefront, planning_grid
-from tomosim.exploration.targets import Candidate, TargetChooser, Teammate, make_chooser
+from tomosim.exploration.targets import Candidate, TargetChooser, Teammate
 from tomosim.lidar import Scan
 
 RECOVERY_COMMAND = (-0.3, 0.6)
@@ -99,8 +101,7 @@ class ExplorationConfig:
 
     def __post_init__(self) -> None:
         for name in ("min_frontier_size", "replan_interval", "stuck_steps"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
+            whole_number(getattr(self, name), name, minimum=1)
         for name in (
             "size_bonus",
             "stuck_distance",
@@ -108,10 +109,8 @@ class ExplorationConfig:
             "start_search_radius",
             "claim_radius",
         ):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
-        if self.recovery_steps < 0:
-            raise ValueError(f"recovery_steps must be >= 0, got {self.recovery_steps}")
+            real_number(getattr(self, name), name, low=0.0)
+        whole_number(self.recovery_steps, "recovery_steps", minimum=0)
 
 
 def _start_cell(
@@ -140,7 +139,7 @@ class FrontierPolicy:
         Defaults as documented there.
     chooser : TargetChooser or str
         The target chooser, or its name in
-        :data:`~tomosim.exploration.targets.CHOOSERS` (default ``"nearest"``).
+        :data:`~tomosim.exploration.choosers.CHOOSERS` (default ``"nearest"``).
     """
 
     __slots__ = (

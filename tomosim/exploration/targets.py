@@ -1,31 +1,13 @@
-"""Choosing a frontier to drive to: the candidates, what a robot knows of its team, the rules.
+"""What choosing a frontier works with: the candidates, what a robot knows of its team.
 
 A robot that replans has, on its best map, the frontier clusters it can
 reach (:class:`Candidate`: their cells, where they are and what reaching
 each cell costs) and what it knows of the teammates it is linked to and can
 talk to (:class:`Teammate`: where each is and the frontier it is driving to,
 carried into the robot's frame by the merge transform, and the cost of its
-paths). A *target chooser* turns these into one target cell.
-
-Choosers are selected by name (:data:`CHOOSERS`, :func:`make_chooser`):
-
-``nearest``
-    The cheapest cluster to reach, less a bonus for its size; teammates are
-    ignored (every robot explores as if alone).
-``utility``
-    Burgard et al.'s coordination [1]_ (:mod:`~tomosim.exploration.utility`):
-    a frontier cell's utility drops around the targets teammates have taken.
-``assignment``
-    Robots to clusters by path cost, the Hungarian method
-    (:mod:`~tomosim.exploration.assignment`).
-
-Every chooser scores the same way when a robot is alone, so with no links
-the three give the same episode.
-
-References
-----------
-.. [1] W. Burgard, M. Moors, C. Stachniss, F. E. Schneider, "Coordinated
-   multi-robot exploration", IEEE Transactions on Robotics 21(3), 376-386, 2005.
+paths). A *target chooser* (:class:`TargetChooser`) turns these into one
+target cell; the choosers and their registry are in
+:mod:`~tomosim.exploration.choosers`.
 """
 
 from __future__ import annotations
@@ -122,63 +104,3 @@ class TargetChooser(Protocol):
 def own_scores(candidate: Candidate, size_bonus: float) -> NDArray[np.float64]:
     """Per cell: metres of path to it less the size bonus of its cluster (lower is better)."""
     return candidate.costs - size_bonus * candidate.length
-
-
-@dataclass(frozen=True, slots=True)
-class NearestChooser:
-    """The cheapest cell to reach, less its cluster's size bonus; teammates ignored."""
-
-    name: str = "nearest"
-    coordinated: bool = False
-
-    def choose(
-        self, candidates: Sequence[Candidate], teammates: Sequence[Teammate], *, size_bonus: float
-    ) -> Choice | None:
-        best: tuple[float, Choice] | None = None
-        for k, candidate in enumerate(candidates):
-            scores = own_scores(candidate, size_bonus)
-            index = int(np.argmin(scores))
-            if best is None or scores[index] < best[0]:
-                best = (float(scores[index]), (k, index))
-        return None if best is None else best[1]
-
-
-def chooser_names() -> tuple[str, ...]:
-    """Names :func:`make_chooser` accepts."""
-    return tuple(CHOOSERS)
-
-
-def make_chooser(name: str) -> TargetChooser:
-    """The chooser called ``name``, with its default settings.
-
-    Raises
-    ------
-    ValueError
-        For an unknown name (the message lists the known ones).
-    """
-    factory = CHOOSERS.get(name)
-    if factory is None:
-        raise ValueError(
-            f"unknown exploration policy {name!r}; choose one of: {', '.join(CHOOSERS)}"
-        )
-    return factory()
-
-
-def _utility() -> TargetChooser:
-    from tomosim.exploration.utility import UtilityChooser
-
-    return UtilityChooser()
-
-
-def _assignment() -> TargetChooser:
-    from tomosim.exploration.assignment import AssignmentChooser
-
-    return AssignmentChooser()
-
-
-CHOOSERS: dict[str, Callable[[], TargetChooser]] = {
-    "nearest": NearestChooser,
-    "utility": _utility,
-    "assignment": _assignment,
-}
-"""Every chooser by name."""

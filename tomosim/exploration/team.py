@@ -24,8 +24,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from merging.validators import whole_number
+from tomosim.exploration.choosers import make_chooser
 from tomosim.exploration.policy import ExplorationConfig, FrontierPolicy
-from tomosim.exploration.targets import PathCosts, Teammate, make_chooser
+from tomosim.exploration.targets import PathCosts, Teammate
 
 if TYPE_CHECKING:
     from tomosim.team.session import TeamSession
@@ -58,7 +60,7 @@ class TeamExplorer:
     robots : int
         Team size.
     policy : str
-        The target chooser of every robot (:func:`~tomosim.exploration.targets.chooser_names`).
+        The target chooser of every robot (:func:`~tomosim.exploration.choosers.chooser_names`).
     config : ExplorationConfig, optional
         Planning, following and choosing parameters, shared by all robots.
     """
@@ -68,8 +70,7 @@ class TeamExplorer:
     def __init__(
         self, robots: int, *, policy: str = DEFAULT_POLICY, config: ExplorationConfig | None = None
     ) -> None:
-        if not (isinstance(robots, int | np.integer) and robots >= 1):
-            raise ValueError(f"robots must be a whole number >= 1, got {robots!r}")
+        whole_number(robots, "robots", minimum=1)
         make_chooser(policy)  # one clear error for an unknown name
         self.policy = policy
         self.policies = [FrontierPolicy(config, chooser=policy) for _ in range(int(robots))]

@@ -2,7 +2,7 @@
 
 In [1]_ every frontier cell ``t`` starts with utility ``U_t = 1``; once a
 robot is sent to target ``t'``, the utility of every cell near it falls by the
-probability that it will be seen from there,
+probability that it will be seen from there::
 
     U_t <- U_t - P(|t - t'|),    P(d) = 1 - d / R  for d < R, else 0,
 
@@ -37,18 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.validators import real_number
 from tomosim.exploration.targets import Candidate, Choice, Teammate, own_scores
-
-UTILITY_WEIGHT_M = 12.0
-"""Metres of path a fresh target is worth: a cell at a teammate's target (utility 0)
-loses to any other frontier up to 12 m further away, about the width of two rooms of
-a generated floor, so robots split across neighbouring rooms rather than follow
-each other; further frontiers are left to the teammate. Set by that reasoning, not
-tuned; ``scripts/study_exploration.py`` measures the policy with it."""
-DISCOUNT_RADIUS_M = 6.0
-"""Metres: ``R`` of the visibility probability ``P(d)``. The paper takes the sensor's
-range; indoors walls hide most of an 8 m lidar's reach, and a smaller radius keeps
-frontiers of the next room, which a teammate's target does not show, at full worth."""
 
 
 def visibility(distance: ArrayLike, radius: float) -> NDArray[np.float64]:
@@ -79,21 +69,30 @@ class UtilityChooser:
     Attributes
     ----------
     weight : float
-        Metres of path a fresh target (utility 1) is worth.
+        Metres of path a fresh target (utility 1) is worth: a cell at a
+        teammate's target (utility 0) loses to any other frontier up to 12 m
+        further away, about the width of two rooms of a generated floor, so
+        robots split across neighbouring rooms rather than follow each other;
+        further frontiers are left to the teammate. Set by that reasoning, not
+        tuned; ``scripts/study_exploration.py`` measures the policy with it.
     radius : float
-        Metres, ``R`` of :func:`visibility`.
+        Metres: ``R`` of the visibility probability ``P(d)``
+        (:func:`visibility`). The paper takes the sensor's range; indoors
+        walls hide most of an 8 m lidar's reach, and a smaller radius keeps
+        frontiers of the next room, which a teammate's target does not show,
+        at full worth.
+    name, coordinated
+        The chooser's name, and that it uses what it knows of teammates.
     """
 
-    weight: float = UTILITY_WEIGHT_M
-    radius: float = DISCOUNT_RADIUS_M
+    weight: float = 12.0
+    radius: float = 6.0
     name: str = "utility"
     coordinated: bool = True
 
     def __post_init__(self) -> None:
-        if not self.weight >= 0:
-            raise ValueError(f"weight must be >= 0 metres, got {self.weight}")
-        if not self.radius > 0:
-            raise ValueError(f"radius must be positive (metres), got {self.radius}")
+        real_number(self.weight, "weight", low=0.0, unit="metres")
+        real_number(self.radius, "radius", low=0.0, low_open=True, unit="metres")
 
     def choose(
         self, candidates: Sequence[Candidate], teammates: Sequence[Teammate], *, size_bonus: float

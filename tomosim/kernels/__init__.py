@@ -4,23 +4,23 @@ Each kernel does in one compiled loop what a numpy function elsewhere in
 ``tomosim`` states in array operations; the numpy function stays as the
 readable specification and as the oracle the tests compare the kernel with:
 
-=======================================  ==============================================
-kernel                                   oracle
-=======================================  ==============================================
-:func:`~tomosim.kernels.raycast.cast_scan`     :func:`tomosim.raycast.cast_segments` and
-                                         :func:`tomosim.raycast.cast_circles` (in turn
-                                         checked against pymunk's segment queries)
-:func:`~tomosim.kernels.raycast.scan_team`     :func:`~tomosim.kernels.raycast.cast_scan` and
-                                         :func:`~tomosim.kernels.raycast.add_noise` robot by
-                                         robot (:meth:`tomosim.lidar.Lidar.scan`)
+===============================================  ===================================================
+kernel                                           oracle
+===============================================  ===================================================
+:func:`~tomosim.kernels.raycast.cast_scan`       :func:`tomosim.ray_geometry.cast_segments` and
+                                                 :func:`tomosim.ray_geometry.cast_circles` (in turn
+                                                 checked against pymunk's segment queries)
+:func:`~tomosim.kernels.raycast.scan_team`       :func:`~tomosim.kernels.raycast.cast_scan` and
+                                                 :func:`~tomosim.kernels.raycast.add_noise` robot by
+                                                 robot (:meth:`tomosim.lidar.Lidar.scan`)
 :func:`~tomosim.kernels.logodds.integrate_scan`  :func:`tomosim.mapping.integrate_rays` and
-                                         :func:`tomosim.mapping.ros_codes`; it does the
-                                         work of :func:`~tomosim.kernels.logodds.update_grid`
-:func:`~tomosim.kernels.coverage.reveal_cells`   the evaluation rule of
-                                         :func:`tomosim.evaluation.known_in_world`
+                                                 :func:`tomosim.mapping.ros_codes`; it does the work
+                                                 of :func:`~tomosim.kernels.logodds.update_grid`
+:func:`~tomosim.kernels.reveal.reveal_cells`     the evaluation rule of
+                                                 :func:`tomosim.evaluation.known_in_world`
 :func:`~tomosim.kernels.crop.crop_max_pool`      window slicing and a reshaped maximum in
-                                         numpy (``tests/tomosim/test_kernels.py``)
-=======================================  ==============================================
+                                                 numpy (``tests/tomosim/kernels/test_kernels.py``)
+===============================================  ===================================================
 
 The modules here import neither pymunk, PettingZoo nor rerun, and nothing of
 ``tomosim`` but each other.

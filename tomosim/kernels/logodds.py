@@ -2,30 +2,43 @@
 
 The inverse sensor model is that of :func:`tomosim.mapping.integrate_rays`
 (its specification and test oracle), computed with the same single-precision
-sample positions, so both mark the same cells. Instead of fancy-indexed
-gathers, each cell passed is counted once per scan through a *stamp* grid
-holding the number of the last scan that passed it.
+sample positions, so both mark the same cells, and :func:`integrate_scan`
+lists the cells it observes first in the order the oracle's samples reach
+them. A scan has some 26,000 samples (360 beams of 8 m at 5 cm), half of
+them near the sensor, where many beams cross the same cells, and most of
+them on cells already known to be free. The kernel:
 
-The loop over a scan's samples (some 26,000 for 360 beams of 8 m at 5 cm, half
-of them near the sensor, where many beams cross the same cells) has no branch
-that depends on the data: whether a cell was passed before in this scan changes
-*what* is written (its new value, or its old one again), not *whether*, and the
-index of a changed cell is always stored and kept by advancing the count by
-one or zero. A branch there would be mispredicted at random near the sensor;
-without it the loop costs about 60 % of what it did. Indices are unsigned, so
-that the compiled code skips the wrap-around of negative indices. The kernel also
+1. computes each beam's sample cells in a loop the compiler vectorises
+   (:func:`beam_cells`), into a buffer that stays in the first-level cache;
+2. finds each cell's first pass in this scan through a *stamp* grid holding,
+   per cell, the number of the last scan that passed it: one byte read and
+   written per sample, without a branch on the data (the index of every
+   sample is stored and kept by advancing a count by one or zero; a branch
+   would be mispredicted at random near the sensor);
+3. skips the cells whose log-odds sits at ``log_odds_min`` already, which a
+   pass cannot change, known from a flag bit of the same stamp
+   (:data:`SATURATED`), so that the log-odds grid is read only at cells that
+   can change: the free space the robot has seen a few times is nearly all
+   that it sees, so a beam's samples up to its first cell that is not
+   saturated are only read, not stamped (a saturated cell's scan number is
+   never looked at);
+4. applies one ``log_odds_miss`` to each cell passed, then the hits;
+5. recodes, in the ROS coding of :func:`tomosim.mapping.ros_codes`, exactly
+   the cells whose log-odds changed, so that the exported grid is never
+   converted in full, and returns the flat indices of the cells observed for
+   the first time, from which the team coverage is kept up to date without
+   scanning grids.
 
-* recodes, in the ROS coding of :func:`tomosim.mapping.ros_codes`, exactly
-  the cells the scan changed, so that the exported grid is never converted
-  in full;
-* returns the flat indices of the cells observed for the first time, from
-  which the team coverage is kept up to date without scanning grids.
+Indices are unsigned, so that the compiled code skips the wrap-around of
+negative indices. A *scratch* buffer, kept by the caller from scan to scan,
+holds the sample cells and the changed cells (:func:`update_grid` says when it
+is too small). Each kernel hands back one array at most: every array returned
+to Python costs about a microsecond to box.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,10 +47,29 @@ from tomosim.kernels.jit import kernel
 
 UNKNOWN_CODE = -1
 """ROS code of a cell never observed."""
+SATURATED = 0x80
+"""Stamp bit set exactly while a cell's log-odds equals ``log_odds_min``: a pass leaves
+such a cell as it is, so passes skip it."""
+SCAN_NUMBER_BITS = 0x7F
+"""The stamp bits holding a scan number: numbers run 1..127; a caller starting them
+again clears these bits of every stamp and keeps :data:`SATURATED`."""
+INTEGRATED = 0
+"""Status of :func:`update_grid`: the scan was integrated."""
+GROW_GRID = 1
+"""Status of :func:`update_grid`: the grid must grow first."""
+GROW_SCRATCH = 2
+"""Status of :func:`update_grid`: the scratch memory must grow first."""
+SAMPLES_MARGIN = 3
+"""Samples added to a beam's length in cells when bounding its samples: one for the
+ceiling, one for a beam of no length (one sample), one for rounding."""
+CODE_TABLE_SIZE = 128
+"""Entries of :func:`code_thresholds`: the 100 thresholds padded with ``inf`` to a power
+of two, so that a search halves it without a bound check."""
 
 
 def code_thresholds() -> NDArray[np.float64]:
-    """``(100,)`` log-odds at which the ROS code steps from ``p - 1`` to ``p``, ``p = 1..100``.
+    """``(128,)`` log-odds at which the ROS code steps from ``p - 1`` to ``p``, ``p = 1..100``,
+    then ``inf`` (:data:`CODE_TABLE_SIZE`).
 
     ``round(100 / (1 + exp(-l)))`` (halves up) reaches ``p`` where the
     probability reaches ``(p - 0.5) / 100``, at ``l = log(q / (1 - q))``;
@@ -45,13 +77,46 @@ def code_thresholds() -> NDArray[np.float64]:
     exponential per cell.
     """
     q = (np.arange(1, 101) - 0.5) / 100.0
-    return np.log(q / (1.0 - q))
+    table = np.full(CODE_TABLE_SIZE, np.inf)
+    table[:100] = np.log(q / (1.0 - q))
+    return table
 
 
 @kernel
 def ros_code(value: float, thresholds: NDArray[np.float64]) -> int:
-    """ROS code of an observed cell of log-odds ``value`` (:func:`code_thresholds`)."""
-    return int(np.searchsorted(thresholds, value, side="right"))
+    """ROS code of an observed cell of finite log-odds ``value`` (:func:`code_thresholds`):
+    the number of thresholds at or below it, by halving the table (no branch on the data)."""
+    position = 0
+    half = CODE_TABLE_SIZE // 2
+    while half > 0:
+        probe = position + half
+        position = probe if thresholds[probe - 1] <= value else position
+        half //= 2
+    return position
+
+
+@kernel
+def beam_cells(
+    step_x: np.float32,
+    step_y: np.float32,
+    offset_x: np.float32,
+    offset_y: np.float32,
+    samples: int,
+    cols: int,
+    out: NDArray[np.int64],
+) -> None:
+    """Flat cell index of sample ``j`` of a beam, ``j < samples``, into ``out[j]``.
+
+    Sample ``j`` lies at ``(step_x * j + offset_x, step_y * j + offset_y)`` in
+    single precision, the offsets being the sensor position plus half a cell
+    (cell ``(col, row)`` spans ``[col, col + 1)`` there); positions are
+    non-negative (inside the grid), so truncation is the floor.
+    """
+    for j in range(samples):
+        along = np.float32(np.int32(j))
+        x = step_x * along + offset_x
+        y = step_y * along + offset_y
+        out[j] = np.int64(np.int32(y)) * cols + np.int64(np.int32(x))
 
 
 @kernel
@@ -59,7 +124,7 @@ def integrate_scan(
     logodds: NDArray[np.float32],
     observed: NDArray[np.bool_],
     codes: NDArray[np.int8],
-    stamps: NDArray[np.unsignedinteger[Any]],
+    stamps: NDArray[np.uint8],
     scan_id: int,
     origin_x: float,
     origin_y: float,
@@ -72,6 +137,7 @@ def integrate_scan(
     sample_step: float,
     hit_depth: float,
     thresholds: NDArray[np.float64],
+    scratch: NDArray[np.int64],
 ) -> NDArray[np.int64]:
     """Apply one scan in place (the model of :func:`tomosim.mapping.integrate_rays`).
 
@@ -82,11 +148,13 @@ def integrate_scan(
     observed : (rows, cols) bool ndarray
         Set for every cell the scan touches.
     codes : (rows, cols) int8 ndarray
-        The ROS-coded grid; the cells the scan touches are recoded.
-    stamps : (rows, cols) unsigned integer ndarray
-        Per cell, the ``scan_id`` of the last scan that passed it; updated.
+        The ROS-coded grid, ``-1`` exactly where ``observed`` is False; the cells
+        whose log-odds the scan changes are recoded.
+    stamps : (rows, cols) uint8 ndarray
+        Per cell, the number of the last scan that passed it and the
+        :data:`SATURATED` bit; updated. All zeros for a new grid.
     scan_id : int
-        A number no cell's stamp holds, and that fits the stamps' type.
+        A scan number in ``1..127`` that no stamp holds.
     origin_x, origin_y : float
         Sensor position in cell coordinates ``(x, y) = (col, row)``.
     ends : (M, 2) float ndarray
@@ -99,13 +167,19 @@ def integrate_scan(
         Cells between samples along a beam.
     hit_depth : float
         Cells beyond the end point at which a return marks its cell.
-    thresholds : (100,) float ndarray
+    thresholds : (128,) float ndarray
         :func:`code_thresholds`.
+    scratch : (S,) int64 ndarray
+        Working memory: at least the scan's samples, plus one per beam and the
+        samples of its longest beam (:func:`update_grid` bounds it); a smaller one
+        raises ValueError.
 
     Returns
     -------
     (K,) int64 ndarray
-        Flat indices (``row * cols + col``) of the cells observed for the first time.
+        Flat indices (``row * cols + col``) of the cells observed for the first
+        time, in the order of the samples (beam by beam, from the sensor out)
+        that first changed them, then of the hits.
     """
     cols = logodds.shape[1]
     flat = logodds.ravel()
@@ -115,65 +189,79 @@ def integrate_scan(
     beams = ends.shape[0]
     miss = np.float32(log_odds_miss)
     low = np.float32(log_odds_min)
+    high = np.float32(log_odds_max)
     offset_x = np.float32(origin_x + 0.5)
     offset_y = np.float32(origin_y + 0.5)
-    # Hit cells and their values before the scan (a hit wins over a pass).
+    # Samples per beam (sample j of n at origin + j / n * (end - origin)), and the hit
+    # cells with their values before the scan (a hit wins over a pass).
+    samples = np.empty(beams, dtype=np.int64)
     hit_cells = np.empty(beams, dtype=np.int64)
     hit_before = np.empty(beams, dtype=np.float32)
     hits = 0
+    total = 0
+    longest = 0
     for i in range(beams):
-        if not hit[i]:
-            continue
         dx = ends[i, 0] - origin_x
         dy = ends[i, 1] - origin_y
-        depth = hit_depth / max(math.hypot(dx, dy), 2.2250738585072014e-308)
+        length = math.hypot(dx, dy)
+        samples[i] = max(math.ceil(length / sample_step), 1)
+        total += samples[i]
+        longest = max(longest, samples[i])
+        if not hit[i]:
+            continue
+        depth = hit_depth / max(length, 2.2250738585072014e-308)
         col = math.floor(ends[i, 0] + dx * depth + 0.5)
         row = math.floor(ends[i, 1] + dy * depth + 0.5)
         cell = row * cols + col
         hit_cells[hits] = cell
         hit_before[hits] = flat[cell]
         hits += 1
-    total = 0
+    if scratch.shape[0] < total + hits + longest:
+        raise ValueError("the scratch memory is too small for this scan; see update_grid")
+    beam = scratch[total + hits :]  # one beam's sample cells, after the room for the lists
+    now = np.uint8(scan_id)
+    # Steps 1-3: the first pass of each cell not saturated, in the order of the samples.
+    passed = np.uint64(0)
     for i in range(beams):
-        length = math.hypot(ends[i, 0] - origin_x, ends[i, 1] - origin_y)
-        total += max(math.ceil(length / sample_step), 1)
-    touched = np.empty(total + hits, dtype=np.int64)
-    count = np.uint64(0)
-    stamp_now = stamps.dtype.type(scan_id)
-    # Passes: sample j of beam i at origin + j / n * (end - origin), j < n, once per cell.
-    for i in range(beams):
-        dx = ends[i, 0] - origin_x
-        dy = ends[i, 1] - origin_y
-        samples = max(math.ceil(math.hypot(dx, dy) / sample_step), 1)
-        step_x = np.float32(dx / samples)
-        step_y = np.float32(dy / samples)
-        for j in range(samples):
-            xs = step_x * np.float32(j) + offset_x
-            ys = step_y * np.float32(j) + offset_y
-            cell = np.uint64(np.int64(ys) * cols + np.int64(xs))
-            first_pass = stamp[cell] != stamp_now
-            stamp[cell] = stamp_now
-            before = flat[cell]
-            value = before + miss
-            value = value if value > low else low
-            # A cell passed before in this scan keeps its value (written back). A value
-            # the clamp kept unchanged is the clamp (not 0): the cell was seen before
-            # and keeps its code, so only changed cells are kept for recoding.
-            value = value if first_pass else before
-            flat[cell] = value
-            touched[count] = cell
-            count += np.uint64(value != before)
+        n = samples[i]
+        step_x = np.float32((ends[i, 0] - origin_x) / n)
+        step_y = np.float32((ends[i, 1] - origin_y) / n)
+        beam_cells(step_x, step_y, offset_x, offset_y, n, cols, beam)
+        first = 0  # the beam's leading run of saturated cells needs no stamping
+        while first < n and stamp[np.uint64(beam[first])] >= np.uint8(SATURATED):
+            first += 1
+        for j in range(first, n):
+            cell = np.uint64(beam[j])
+            mark = stamp[cell]
+            stamp[cell] = (mark & np.uint8(SATURATED)) | now
+            scratch[passed] = cell
+            passed += np.uint64((mark != now) & (mark < np.uint8(SATURATED)))
+    # Step 4: one miss per cell passed, then the hits; the changed cells are kept.
+    changed = np.uint64(0)
+    for t in range(passed):
+        cell = np.uint64(scratch[t])
+        before = flat[cell]
+        value = before + miss
+        value = value if value > low else low
+        flat[cell] = value
+        stamp[cell] |= np.uint8(SATURATED) * np.uint8(value == low)
+        scratch[changed] = cell
+        changed += np.uint64(value != before)
     for h in range(hits):
+        cell = np.uint64(hit_cells[h])
         value = hit_before[h] + np.float32(log_odds_hit)
-        high = np.float32(log_odds_max)
-        flat[hit_cells[h]] = value if value < high else high
-        touched[count] = hit_cells[h]
-        count += np.uint64(1)
-    fresh = np.empty(count, dtype=np.int64)
+        value = value if value < high else high
+        current = flat[cell]
+        flat[cell] = value
+        stamp[cell] &= np.uint8(SCAN_NUMBER_BITS)
+        scratch[changed] = cell
+        changed += np.uint64(value != current)
+    # Step 5: recode what changed; the cells unknown until now are the fresh ones.
+    fresh = np.empty(changed, dtype=np.int64)
     new = 0
-    for t in range(count):
-        cell = touched[t]
-        if not seen[cell]:
+    for t in range(changed):
+        cell = np.uint64(scratch[t])
+        if coded[cell] == UNKNOWN_CODE:
             seen[cell] = True
             fresh[new] = cell
             new += 1
@@ -251,7 +339,7 @@ def update_grid(
     logodds: NDArray[np.float32],
     observed: NDArray[np.bool_],
     codes: NDArray[np.int8],
-    stamps: NDArray[np.unsignedinteger[Any]],
+    stamps: NDArray[np.uint8],
     scan_id: int,
     grid_x: float,
     grid_y: float,
@@ -273,7 +361,9 @@ def update_grid(
     thresholds: NDArray[np.float64],
     anchor_a: int,
     anchor_b: int,
-) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    scratch: NDArray[np.int64],
+    wanted: NDArray[np.float64],
+) -> tuple[int, NDArray[np.int64]]:
     """One scan into a grid whose cell ``(0, 0)`` has its corner at ``(grid_x, grid_y)`` metres.
 
     The steps of :meth:`tomosim.mapping.LogOddsMap.update` in one call:
@@ -281,24 +371,27 @@ def update_grid(
     room (unless ``room_checked``), the end points in cell coordinates, and
     :func:`integrate_scan`. Arguments are those of the two kernels, the pose
     ``(pose_x, pose_y, pose_theta)``, the scan's ``angles``, ``ranges`` and
-    ``max_range``, and the lattice index ``(anchor_a, anchor_b)`` of cell ``(0, 0)``.
+    ``max_range``, the lattice index ``(anchor_a, anchor_b)`` of cell ``(0, 0)``,
+    the scratch memory of :func:`integrate_scan`, and ``wanted``, a ``(4,)`` array
+    that says what the caller must do first when the scan was not integrated.
 
     Returns
     -------
-    grow : (0,) or (4,) float ndarray
-        Empty when the scan was integrated; else ``(xmin, ymin, xmax, ymax)``,
-        metres, a box the grid must be grown to hold before the scan can be
-        (nothing was changed).
+    status : int
+        :data:`INTEGRATED`; :data:`GROW_GRID`: nothing was changed, the grid must
+        first be grown to hold the box ``wanted = (xmin, ymin, xmax, ymax)``,
+        metres; :data:`GROW_SCRATCH`: nothing was changed, the scratch memory
+        must first hold ``wanted[0]`` cells.
     fresh : (K, 2) int64 ndarray
-        Lattice cells ``(a, b)`` observed for the first time.
+        Lattice cells ``(a, b)`` observed for the first time, in the order of
+        :func:`integrate_scan` (none unless integrated).
     """
     none = np.zeros((0, 2), dtype=np.int64)
-    no_growth = np.zeros(0)
     ends, hit, box = beam_ends(
         pose_x, pose_y, pose_theta, angles, ranges, max_range, carve_no_return
     )
     if ends.shape[0] == 0:
-        return no_growth, none
+        return INTEGRATED, none
     # One cell of room beyond the end points for the hit cells (the hit depth).
     room = resolution
     rows, cols = logodds.shape
@@ -308,7 +401,15 @@ def update_grid(
         and box[2] + room < grid_x + cols * room
         and box[3] + room < grid_y + rows * room
     ):
-        return np.array([box[0] - room, box[1] - room, box[2] + room, box[3] + room]), none
+        wanted[0], wanted[1] = box[0] - room, box[1] - room
+        wanted[2], wanted[3] = box[2] + room, box[3] + room
+        return GROW_GRID, none
+    # A beam is no longer than the farthest corner of the box from the sensor.
+    reach = math.hypot(max(box[2] - pose_x, pose_x - box[0]), max(box[3] - pose_y, pose_y - box[1]))
+    per_beam = int(reach / resolution / sample_step) + SAMPLES_MARGIN
+    if scratch.shape[0] < ends.shape[0] * (per_beam + 1) + per_beam:
+        wanted[0] = ends.shape[0] * (per_beam + 1) + per_beam
+        return GROW_SCRATCH, none
     cells = np.empty_like(ends)
     for i in range(ends.shape[0]):
         cells[i, 0] = (ends[i, 0] - grid_x) / resolution - 0.5
@@ -330,9 +431,10 @@ def update_grid(
         sample_step,
         hit_depth,
         thresholds,
+        scratch,
     )
     lattice = np.empty((fresh.shape[0], 2), dtype=np.int64)
     for k in range(fresh.shape[0]):
         lattice[k, 0] = fresh[k] % cols + anchor_a
         lattice[k, 1] = fresh[k] // cols + anchor_b
-    return no_growth, lattice
+    return INTEGRATED, lattice

@@ -1,10 +1,10 @@
 """One lidar scan against wall segments and circular robots, compiled.
 
-The algorithm is that of :func:`tomosim.raycast.cast_segments` (an angular
+The algorithm is that of :func:`tomosim.ray_geometry.cast_segments` (an angular
 sweep: each segment is intersected only with the beams whose directions lie
 between those of its end points) followed by
-:func:`tomosim.raycast.cast_circles`, with the bounding-box culling of
-:func:`tomosim.raycast.cull_segments` folded in. Those numpy functions are
+:func:`tomosim.ray_geometry.cast_circles`, with the bounding-box culling of
+:func:`tomosim.ray_geometry.cull_segments` folded in. Those numpy functions are
 its specification and its test oracle; the tolerances are theirs.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tomosim.kernels.jit import kernel
-from tomosim.raycast import ANGLE_TOLERANCE, COLLINEAR_TOLERANCE
+from tomosim.ray_geometry import ANGLE_TOLERANCE, COLLINEAR_TOLERANCE
 
 TWO_PI = 2.0 * math.pi
 
@@ -86,7 +86,8 @@ def cast_scan(
         high = low + abs(delta)
         cross = x0 * ey - y0 * ex
         collinear = abs(cross) <= COLLINEAR_TOLERANCE * math.hypot(ex, ey)
-        nearer = min(math.hypot(x0, y0), math.hypot(x1, y1))
+        # A beam along a collinear segment meets its nearer end (needed for those alone).
+        nearer = min(math.hypot(x0, y0), math.hypot(x1, y1)) if collinear else 0.0
         # 2. The beams of the extent and of its copies one turn either side.
         for turn in (-TWO_PI, 0.0, TWO_PI):
             k_low = max(math.ceil((low + turn - ANGLE_TOLERANCE) / increment), 0)

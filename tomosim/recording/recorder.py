@@ -8,7 +8,7 @@ The algorithms return data; the :class:`Recorder` takes an explicit
   the run's settings, ``run/status`` "running", the ground truth, the walls,
   the robots' bodies and the colours of the maps (:mod:`tomosim.recording.colours`);
 * every step: the true poses, the scans, the team coverage, and the tracked
-  figures of :mod:`tomosim.episode.tracking` (each robot's coverage and path
+  figures of :mod:`tomosim.episode.exploration_tracker` (each robot's coverage and path
   length, the team's path length and overlap rate; :meth:`Recorder.log_figures`);
 * each robot's map when it has changed, at most every ``map_interval`` steps
   (and at the last step);
@@ -25,7 +25,7 @@ and places the grid's origin, so image row 0 is the grid's row 0 (its lowest
 ``maps/rK`` frames mirror ``y`` once, because rerun's 2-D views draw ``y``
 down.
 
-Writing is checked every :data:`FLUSH_INTERVAL_S` seconds: a recording that
+Writing is checked every ``FLUSH_INTERVAL_S`` seconds: a recording that
 cannot be written (a full disk, a file removed) raises :class:`RecordingError`
 during the run, not after it.
 """
@@ -46,7 +46,7 @@ import rerun as rr
 from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid
-from tomosim.episode.tracking import StepFigures
+from tomosim.episode.exploration_tracker import StepFigures
 from tomosim.recording.blueprint import default_blueprint
 from tomosim.recording.colours import map_classes, merged_classes
 from tomosim.recording.paths import (

@@ -351,7 +351,9 @@ def _run_on_ray(
         return
     started = not ray.is_initialized()
     if started:
-        options: dict[str, Any] = {"address": ray_address, "log_to_driver": False}
+        # None: a Ray of this process's own, even when a cluster started with `ray start`
+        # (or one that has since died) is recorded on this machine.
+        options: dict[str, Any] = {"address": ray_address or "local", "log_to_driver": False}
         if ray_address is None:
             options.update(include_dashboard=False, num_cpus=workers)
         ray.init(**options)

@@ -3,26 +3,20 @@
 from __future__ import annotations
 
 import hashlib
-import math
 import os
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import numpy as np
-
-from tomosim.episode import EpisodeConfig
+from merging.catalog import is_map_path
+from merging.validators import SettingTypeError, one_of, whole_number
+from tomosim.episode import DEFAULT_COVERAGE_TARGET, DEFAULT_WORLD_SEED, EpisodeConfig
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
-from tomosim.team import CommsConfig, team_methods
+from tomosim.team import TeamConfig, team_methods
 from tomosim.worlds import FloorplanConfig
 
 NO_MERGE = "none"
 """Method name standing for an episode with merging switched off."""
-
-
-def _whole(value: object) -> bool:
-    """Whether ``value`` is a whole number (an int, not a bool)."""
-    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
 
 
 @dataclass(frozen=True, slots=True)
@@ -37,6 +31,10 @@ class Episode:
 class SweepPlan:
     """A grid of episodes: every combination of worlds, team sizes, policies, methods and seeds.
 
+    Every episode is an :class:`~tomosim.episode.EpisodeConfig`; what the grid
+    does not vary is set once for all of them (``steps``, ``coverage_target``,
+    ``world_size``, ``team``), with the episode's and the team's defaults.
+
     Attributes
     ----------
     worlds : tuple of str
@@ -49,34 +47,33 @@ class SweepPlan:
         Exploration policies (:func:`~tomosim.exploration.chooser_names`).
     methods : tuple of str
         Merging methods (:func:`merging.available_methods`, or ``"oracle"``:
-        the true start poses), or ``"none"`` for merging switched off.
+        the true start poses), or ``"none"`` for merging switched off; each
+        episode's team merges with its own (``team.merge`` and ``team.method``
+        are set from it).
     seeds : tuple of int
         Episode seeds.
-    steps, merge_interval : int
-        Per episode, as :class:`~tomosim.episode.EpisodeConfig`.
+    steps : int
+        Most steps per episode, as :class:`~tomosim.episode.EpisodeConfig`.
     coverage_target : float
         Team coverage at which an episode ends.
     world_size : (float, float) or None
         Size in metres of generated floor plans (None: the default 30 x 20).
-    comm_range : float or None
-        Metres over which robots can talk (None: unlimited).
-    line_of_sight : bool
-        Whether walls block communication.
+    team : TeamConfig
+        Every other setting of the teams: merge interval, communication range,
+        confirmation, tracking, simulation.
     record_dir : Path or None
         Folder for one ``.rrd`` recording per episode (None: no recordings).
     """
 
-    worlds: tuple[str, ...] = ("0",)
-    robots: tuple[int, ...] = (3,)
+    worlds: tuple[str, ...] = (str(DEFAULT_WORLD_SEED),)
+    robots: tuple[int, ...] = (EpisodeConfig.robots,)
     policies: tuple[str, ...] = (DEFAULT_POLICY,)
-    methods: tuple[str, ...] = ("tomographic",)
-    seeds: tuple[int, ...] = (0,)
+    methods: tuple[str, ...] = (TeamConfig.method,)
+    seeds: tuple[int, ...] = (EpisodeConfig.seed,)
     steps: int = EpisodeConfig.steps
-    merge_interval: int = 50
-    coverage_target: float = 0.9
+    coverage_target: float = DEFAULT_COVERAGE_TARGET
     world_size: tuple[float, float] | None = None
-    comm_range: float | None = None
-    line_of_sight: bool = False
+    team: TeamConfig = field(default_factory=TeamConfig)
     record_dir: Path | None = None
 
     def __post_init__(self) -> None:
@@ -88,40 +85,27 @@ class SweepPlan:
                 raise ValueError(f"a sweep needs at least one value of {name}")
         object.__setattr__(self, "worlds", tuple(world_name(world) for world in self.worlds))
         for name, least in (("robots", 1), ("seeds", 0)):
-            bad = [v for v in getattr(self, name) if not _whole(v) or v < least]
-            if bad:
-                raise ValueError(f"{name} must be whole numbers >= {least}, got {bad[0]!r}")
-        for name in ("steps", "merge_interval"):
-            value = getattr(self, name)
-            if not _whole(value) or value < 1:
-                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
-        target = self.coverage_target
-        if isinstance(target, bool) or not isinstance(target, int | float) or not 0 < target <= 1:
-            raise ValueError(f"coverage_target must be a number in (0, 1], got {target!r}")
-        if self.world_size is not None and (
-            len(self.world_size) != 2
-            or not all(
-                isinstance(v, int | float) and math.isfinite(v) and v > 0 for v in self.world_size
-            )
-        ):
-            raise ValueError(f"world_size must be two positive metres, got {self.world_size!r}")
+            for k, value in enumerate(getattr(self, name)):
+                whole_number(value, f"{name}[{k}]", minimum=least)
+        if not isinstance(self.team, TeamConfig):
+            raise SettingTypeError(f"team must be a TeamConfig, got {type(self.team).__name__}")
+        # What every episode shares is checked as the episodes will check it.
+        EpisodeConfig(
+            steps=self.steps,
+            coverage_target=self.coverage_target,
+            world_size=self.world_size,
+            team=self.team,
+        )
         if self.world_size is not None:
             width, height = self.world_size
             try:  # a floor plan's own limits, checked before any episode runs
                 FloorplanConfig(width=float(width), height=float(height))
             except ValueError as exc:
                 raise ValueError(f"world_size {width:g} x {height:g} m: {exc}") from None
-        unknown = [m for m in self.methods if m != NO_MERGE and m not in team_methods()]
-        if unknown:
-            choices = ", ".join([*team_methods(), NO_MERGE])
-            raise ValueError(f"unknown merging method {unknown[0]!r}; choose from: {choices}")
-        strange = [p for p in self.policies if p not in chooser_names()]
-        if strange:
-            raise ValueError(
-                f"unknown exploration policy {strange[0]!r}; choose from: "
-                f"{', '.join(chooser_names())}"
-            )
-        CommsConfig(self.comm_range, self.line_of_sight)  # validates the range
+        for method in self.methods:
+            one_of(method, (*team_methods(), NO_MERGE), what="merging method")
+        for policy in self.policies:
+            one_of(policy, chooser_names(), what="exploration policy")
         for name in ("robots", "seeds", "policies", "methods", "worlds"):
             values = getattr(self, name)
             if len(set(values)) != len(values):
@@ -129,16 +113,17 @@ class SweepPlan:
 
     def settings(self) -> dict[str, object]:
         """What every episode shares, by results-file column; a results file is tied to these."""
+        comms = self.team.comms
         return {
             "steps_limit": self.steps,
-            "merge_interval": self.merge_interval,
+            "merge_interval": self.team.merge_interval,
             "coverage_target": self.coverage_target,
             "world_size": "default"
             if self.world_size is None
             else "x".join(f"{v:g}" for v in self.world_size),
             "comm_range": "unlimited"
-            if self.comm_range is None
-            else f"{self.comm_range:g}" + (" los" if self.line_of_sight else ""),
+            if comms.range is None
+            else f"{comms.range:g}" + (" los" if comms.line_of_sight else ""),
         }
 
     def episodes(self) -> list[Episode]:
@@ -162,13 +147,9 @@ class SweepPlan:
             robots=robots,
             policy=policy,
             steps=self.steps,
-            merge=merge,
-            merge_interval=self.merge_interval,
-            method=method if merge else EpisodeConfig.method,
             coverage_target=self.coverage_target,
-            comm_range=self.comm_range,
-            line_of_sight=self.line_of_sight,
             seed=seed,
+            team=replace(self.team, merge=merge, method=method if merge else TeamConfig.method),
         )
         if self.record_dir is not None:
             config = replace(config, record=self.record_dir / recording_name(key))
@@ -176,15 +157,20 @@ class SweepPlan:
 
 
 def world_name(world: object) -> str:
-    """How a sweep names a world: a seed as its number, a map file by its absolute path.
+    """How a sweep names a world: a seed as its number, a map by its name, a map file by
+    its absolute path.
 
     A resumed sweep finds its episodes by name, so one map must have one name
     however it was typed (``odd/a.yaml``, ``./odd/a.yaml`` or ``a.yaml`` from
-    ``odd/``), and two maps of one file name in two folders two names.
+    ``odd/``), and two maps of one file name in two folders two names. A map of
+    the maps path named by its name (``aces3``) keeps the name, which means the
+    same map on every machine that has it (:mod:`merging.catalog`).
     """
     text = str(world)
     if text.strip().lstrip("+-").isdigit():
         return str(int(text))
+    if isinstance(world, str) and not is_map_path(world) and not Path(text).suffix:
+        return text.strip("/")
     return os.path.abspath(os.path.expanduser(text))
 
 

@@ -1,6 +1,7 @@
 """A team of robots exploring together: periodic merging, shared maps, team coverage,
 limited communication (:mod:`tomosim.team.comms`) and the known-poses bound
-(:mod:`tomosim.team.oracle`).
+(:mod:`tomosim.team.oracle`). Every setting of a team is one
+:class:`TeamConfig` (:mod:`tomosim.team.config`).
 
 >>> from tomosim.team import TeamConfig, TeamSession
 >>> from tomosim.worlds import generate_floorplan
@@ -11,6 +12,7 @@ limited communication (:mod:`tomosim.team.comms`) and the known-poses bound
 
 from tomosim.frames import frame_errors
 from tomosim.team.comms import CommsConfig, in_range, reach_groups
+from tomosim.team.config import TeamConfig, TrackingParams
 from tomosim.team.coverage import TeamCoverage
 from tomosim.team.merger import (
     PairEstimator,
@@ -30,7 +32,7 @@ from tomosim.team.quality import (
     score_round,
     true_relative,
 )
-from tomosim.team.session import TeamConfig, TeamSession
+from tomosim.team.session import TeamSession
 from tomosim.team.sharing import SharedMaps, grid_anchor, teammate_layer
 
 __all__ = [
@@ -46,6 +48,7 @@ __all__ = [
     "TeamMerge",
     "TeamMerger",
     "TeamSession",
+    "TrackingParams",
     "check_team_method",
     "frame_errors",
     "grid_anchor",

@@ -22,7 +22,6 @@ Without a range (the default) every robot reaches every other at every step.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +30,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from merging.result import MergeResult
+from merging.validators import boolean, real_number
 
 CROSSING_TOLERANCE = 1e-12
 """Square metres: cross products smaller than this count as zero (parallel or
@@ -54,10 +54,11 @@ class CommsConfig:
     line_of_sight: bool = False
 
     def __post_init__(self) -> None:
-        if self.range is not None and not (math.isfinite(self.range) and self.range > 0):
-            raise ValueError(
-                f"the communication range must be a positive number of metres, got {self.range}"
+        if self.range is not None:
+            real_number(
+                self.range, "the communication range", low=0.0, low_open=True, unit="metres"
             )
+        boolean(self.line_of_sight, "line_of_sight")
         if self.line_of_sight and self.range is None:
             raise ValueError("line of sight needs a communication range")
 

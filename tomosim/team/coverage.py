@@ -13,8 +13,8 @@ unknown again.
 A robot's counted truth cells are indexed by the lattice cell of its map
 frame they fall in (:mod:`tomosim.team.sharing` defines the lattice), so that
 a map cell observed for the first time reveals exactly the truth cells under
-it (:func:`tomosim.kernels.coverage.reveal_cells`; one compiled call does
-all robots of a step, :func:`~tomosim.kernels.coverage.reveal_team`): a step
+it (:func:`tomosim.kernels.reveal.reveal_cells`; one compiled call does
+all robots of a step, :func:`~tomosim.kernels.reveal.reveal_team`): a step
 costs in proportion to the cells it observed first, which
 :class:`~tomosim.mapping.LogOddsMap` journals, not to the size of the grids.
 :meth:`TeamCoverage.update` takes whole grids instead (any grids, at any time;
@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 from tomosim.frames import pose_matrix
-from tomosim.kernels.coverage import reveal_team
+from tomosim.kernels.reveal import reveal_team
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
 
@@ -62,7 +62,7 @@ def _lattice_keys(
 ) -> tuple[tuple[int, int], int, NDArray[np.int64], NDArray[np.int64]]:
     """One robot's counted truth cells keyed by their lattice cell in its map frame:
     the lattice origin and width of the keys, the sorted keys, and the truth cell of
-    each (:func:`tomosim.kernels.coverage.reveal_cells`)."""
+    each (:func:`tomosim.kernels.reveal.reveal_cells`)."""
     low = lattice.min(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
     high = lattice.max(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
     width = int(high[0] - low[0]) + 1
@@ -205,7 +205,9 @@ class TeamCoverage:
             raise ValueError(f"expected cells of {robots} robots, got {len(cells)}")
         lattices = [np.asarray(observed, dtype=np.int64).reshape(-1, 2) for observed in cells]
         starts = np.array([0, *itertools.accumulate(len(lattice) for lattice in lattices)])
-        found, found_starts, newly, shared = reveal_team(
+        found_starts = np.empty(robots + 1, dtype=np.int64)
+        credit = np.empty(robots)
+        found, newly, shared = reveal_team(
             np.ascontiguousarray(np.concatenate(lattices)),
             starts,
             self._origins,
@@ -216,17 +218,19 @@ class TeamCoverage:
             self._robot_counts,
             self.team_known,
             self._finders,
+            found_starts,
+            credit,
+            self.cell_area,
         )
         self._team_count += newly
         if not shared:  # every cell has one finder: credit is the count, exactly
-            found_counts = (found_starts[1:] - found_starts[:-1]).astype(np.float64)
-            return found_counts * self.cell_area
+            return credit
         fresh = [found[found_starts[k] : found_starts[k + 1]] for k in range(robots)]
         finders = np.zeros(self.total, dtype=np.int32)
         for found_k in fresh:
             finders[found_k] += 1
-        credit = np.array([float(np.sum(1.0 / finders[found_k])) for found_k in fresh])
-        return credit * self.cell_area
+        shares = np.array([float(np.sum(1.0 / finders[found_k])) for found_k in fresh])
+        return shares * self.cell_area
 
     def known_mask(self) -> NDArray[np.bool_]:
         """``(rows, cols)`` mask over the truth grid of the free cells the team knows."""

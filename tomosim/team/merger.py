@@ -6,15 +6,16 @@ A merge round
    :func:`merging.estimate_transform` or with the :data:`PairEstimator` given;
 2. counts an estimate as *confirmed* when the merger accepted it in
    ``confirmations`` consecutive rounds with consistent transforms (within
-   :data:`CONFIRM_ROTATION_DEG` and :data:`CONFIRM_TRANSLATION_M`); an
+   ``confirm_rotation_deg`` and ``confirm_translation_m``; all three settings
+   of :class:`~tomosim.team.config.TeamConfig`); an
    estimate that is not accepted is never used, and one accepted only once
    is not used yet: a single wrong match, which would make a robot plan
    through walls, rarely repeats itself in the next round, which sees more
    of both maps;
-3. links the maps through the confirmed pairs (:func:`merging.link_maps`):
-   a consistent spanning forest, each robot's frame placed in its group's
-   root robot's frame;
-4. fuses the main group (:func:`merging.linking.fuse_group`).
+3. links the maps through the confirmed pairs (:func:`merging.link_maps`, with
+   the team's ``linking`` settings): a consistent spanning forest, each
+   robot's frame placed in its group's root robot's frame;
+4. fuses the main group (:func:`merging.linking.forest.fuse_group`).
 
 A round sees the grids alone, never the truth: scoring it against the true
 start poses is :func:`tomosim.team.quality.score_round`'s job.
@@ -27,25 +28,20 @@ import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from merging import check_method, estimate_transform, link_maps
-from merging.api import DEFAULT_METHOD
 from merging.grid import OccupancyGrid
-from merging.linking import Linking, fuse_group
+from merging.linking.forest import Linking, fuse_group
 from merging.result import MergeResult
+from merging.validators import RngLike, as_generator
 from tomosim.frames import frame_errors
-from tomosim.worlds.world import RngLike, as_generator
 
-CONFIRM_ROTATION_DEG = 3.0
-"""Degrees two rounds' estimates of one pair may differ by and still confirm each
-other: odometry drift moves an estimate by well under a degree between rounds,
-while a wrong match is off by tens of degrees or by whole rooms."""
-CONFIRM_TRANSLATION_M = 0.5
-"""Metres two rounds' estimates may differ by (where each puts the second
-robot's start position) and still confirm each other; same reasoning."""
+if TYPE_CHECKING:  # the configuration's module imports this one's estimator type
+    from tomosim.team.config import TeamConfig
 
 PairEstimator = Callable[[int, int, OccupancyGrid, OccupancyGrid], MergeResult]
 """``estimator(i, j, grid_i, grid_j) -> MergeResult`` for robots ``i < j``: its matrix
@@ -181,48 +177,48 @@ class TeamMerge:
 
 
 class TeamMerger:
-    """Merges all robots' grids every ``interval`` steps (module docstring).
+    """Merges all robots' grids every ``config.merge_interval`` steps (module docstring).
 
     Parameters
     ----------
-    method : str
-        A method of :func:`merging.available_methods` (default the tomographic
-        one), or, with ``estimator``, the name it is reported under.
-    interval : int
-        Steps between merge rounds: rounds run after steps ``interval``,
-        ``2 * interval``, ...
-    confirmations : int
-        Consecutive rounds that must accept consistent estimates of a pair
-        before the pair links maps (1: use an estimate as soon as it is accepted).
+    config : TeamConfig
+        The team's settings; the merger reads ``method`` (a method of
+        :func:`merging.available_methods`, or, with ``estimator``, the name it
+        is reported under), ``merge_interval`` (rounds run after steps
+        ``merge_interval``, ``2 * merge_interval``, ...), ``confirmations``,
+        ``confirm_rotation_deg``, ``confirm_translation_m`` and ``linking``.
     rng : numpy.random.Generator, int or None
         Source of the merging methods' randomness; one stream serves all rounds.
     estimator : PairEstimator, optional
         Estimates a pair instead of ``merging.estimate_transform(grid_i, grid_j,
-        method=method)``.
+        method=config.method)``.
     """
 
-    __slots__ = ("_estimator", "_rng", "_streaks", "confirmations", "interval", "method")
+    __slots__ = ("_estimator", "_rng", "_streaks", "config")
 
     def __init__(
         self,
+        config: TeamConfig,
         *,
-        method: str = DEFAULT_METHOD,
-        interval: int = 50,
-        confirmations: int = 2,
         rng: RngLike = None,
         estimator: PairEstimator | None = None,
     ) -> None:
         if estimator is None:
-            check_method(method)
-        for name, value in (("interval", interval), ("confirmations", confirmations)):
-            if not (isinstance(value, int | np.integer) and value >= 1):
-                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
-        self.method = method
-        self.interval = int(interval)
-        self.confirmations = int(confirmations)
+            check_method(config.method)
+        self.config = config
         self._rng = as_generator(rng)
         self._estimator = estimator
         self._streaks: dict[tuple[int, int], tuple[int, NDArray[np.float64]]] = {}
+
+    @property
+    def method(self) -> str:
+        """The merging method, as rounds report it."""
+        return self.config.method
+
+    @property
+    def interval(self) -> int:
+        """Steps between merge rounds."""
+        return self.config.merge_interval
 
     def due(self, step: int) -> bool:
         """Whether a round runs after step ``step``."""
@@ -246,7 +242,10 @@ class TeamMerger:
             return 0
         count, previous = self._streaks.get(pair, (0, metres))
         rotation, translation = frame_errors(metres, previous)
-        consistent = rotation <= CONFIRM_ROTATION_DEG and translation <= CONFIRM_TRANSLATION_M
+        consistent = (
+            rotation <= self.config.confirm_rotation_deg
+            and translation <= self.config.confirm_translation_m
+        )
         streak = count + 1 if count and consistent else 1
         self._streaks[pair] = (streak, np.asarray(metres, dtype=np.float64))
         return streak
@@ -272,11 +271,12 @@ class TeamMerger:
                 result = self.estimate(i, j, grids)
                 raw[(i, j)] = result
                 streak = self.confirm((i, j), result)
-                if result.accepted and streak < self.confirmations:
-                    why = f"awaiting confirmation ({streak} of {self.confirmations} rounds)"
+                needed = self.config.confirmations
+                if result.accepted and streak < needed:
+                    why = f"awaiting confirmation ({streak} of {needed} rounds)"
                     result = replace(result, accepted=False, reason=why)
                 confirmed[(i, j)] = result
-        linking = link_maps(grids, confirmed)
+        linking = link_maps(grids, confirmed, params=self.config.linking)
         merged = fuse_group(grids, linking, linking.main).grid
         assert merged is not None  # OccupancyGrid inputs give a georeferenced fused map
         pairs = tuple(

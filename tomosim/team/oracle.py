@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike
 from merging import available_methods
 from merging.grid import OccupancyGrid
 from merging.result import MergeResult
+from merging.validators import one_of
 from tomosim.team.merger import PairEstimator
 from tomosim.team.quality import true_relative
 
@@ -42,11 +43,7 @@ def team_methods() -> tuple[str, ...]:
 
 def check_team_method(method: object) -> str:
     """Return ``method`` if a team can merge with it, else raise ValueError listing the names."""
-    if not isinstance(method, str) or method not in team_methods():
-        raise ValueError(
-            f"unknown merging method {method!r}; choose one of: {', '.join(team_methods())}"
-        )
-    return method
+    return one_of(method, team_methods(), what="merging method")
 
 
 def oracle_estimator(starts: ArrayLike) -> PairEstimator:

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from merging.evaluation.metrics import acceptance_index, matching_index
 from merging.grid import OccupancyGrid
-from merging.metrics import acceptance_index, matching_index
 from merging.transforms import matrix_to_pose
 from tomosim.frames import frame_errors, pose_matrix
 from tomosim.team.merger import PairOutcome, TeamMerge, pair_name, robot_name

@@ -25,8 +25,6 @@ for the simulation (start poses, odometry, lidar) and one for the merger.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -34,69 +32,17 @@ from merging import estimate_transform
 from merging.api import DEFAULT_METHOD
 from merging.grid import OccupancyGrid
 from merging.result import MergeResult
-from tomosim.simulation import Simulation, SimulationConfig
-from tomosim.team.comms import CommsConfig, in_range, out_of_reach, reach_groups
+from merging.validators import RngLike, as_generator
+from tomosim.simulation import Simulation
+from tomosim.team.comms import in_range, out_of_reach, reach_groups
+from tomosim.team.config import TeamConfig
 from tomosim.team.coverage import TeamCoverage
+from tomosim.team.link_tracking import TrackingEstimator
 from tomosim.team.merger import PairEstimator, TeamMerge, TeamMerger
-from tomosim.team.oracle import ORACLE, check_team_method, oracle_estimator
+from tomosim.team.oracle import ORACLE, oracle_estimator
 from tomosim.team.quality import RoundQuality, score_round
 from tomosim.team.sharing import SharedMaps
-from tomosim.team.tracking import TrackingEstimator
-from tomosim.worlds.world import RngLike, World, as_generator
-
-
-@dataclass(frozen=True)
-class TeamConfig:
-    """How a team explores: merging and map sharing.
-
-    Attributes
-    ----------
-    merge : bool
-        Whether the robots' maps are merged at all.
-    method : str
-        Merging method (:func:`merging.available_methods`), or ``"oracle"``:
-        the true relative start poses (:mod:`tomosim.team.oracle`).
-    merge_interval : int
-        Steps between merge rounds.
-    confirmations : int
-        Consecutive rounds that must accept consistent estimates of a pair
-        before the pair links maps (:class:`~tomosim.team.merger.TeamMerger`).
-    share_interval : int
-        Steps between updates of a linked robot's view of its teammates' maps.
-    tracking : bool
-        With the default (tomographic) method: track linked pairs' transforms
-        between rounds and search globally only when needed
-        (:class:`~tomosim.team.tracking.TrackingEstimator`); other methods
-        always search every pair.
-    merge_worker : bool
-        Run the tracker's global searches in a worker process (the results,
-        collected at a fixed later round, are the same either way).
-    comms : CommsConfig
-        Communication range (default unlimited; :mod:`tomosim.team.comms`).
-    simulation : SimulationConfig
-        Robots, lidar, odometry and mapping.
-    """
-
-    merge: bool = True
-    method: str = DEFAULT_METHOD
-    merge_interval: int = 50
-    confirmations: int = 2
-    share_interval: int = 10
-    tracking: bool = True
-    merge_worker: bool = True
-    comms: CommsConfig = field(default_factory=CommsConfig)
-    simulation: SimulationConfig = field(default_factory=SimulationConfig)
-
-    def __post_init__(self) -> None:
-        check_team_method(self.method)
-        for name in ("merge_interval", "confirmations", "share_interval"):
-            value = getattr(self, name)
-            whole = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
-            if not (whole and value >= 1):
-                raise ValueError(f"{name} must be a whole number of steps >= 1, got {value!r}")
-        for name in ("merge", "tracking", "merge_worker"):
-            if not isinstance(getattr(self, name), bool | np.bool_):
-                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
+from tomosim.worlds.world import World
 
 
 class TeamSession:
@@ -109,7 +55,7 @@ class TeamSession:
     robots : int
         Number of robots, placed at random free poses with random headings.
     config : TeamConfig, optional
-        Defaults as documented there.
+        Every setting of the team (defaults as documented there).
     rng : numpy.random.Generator, int or None
         The session's only source of randomness.
 
@@ -155,6 +101,8 @@ class TeamSession:
         rng: RngLike = None,
     ) -> None:
         self.config = config if config is not None else TeamConfig()
+        if not isinstance(self.config, TeamConfig):
+            raise TypeError(f"config must be a TeamConfig, got {type(self.config).__name__}")
         sim_rng, merge_rng = as_generator(rng).spawn(2)
         self.simulation = Simulation(
             world, robots=robots, config=self.config.simulation, rng=sim_rng
@@ -162,13 +110,7 @@ class TeamSession:
         count = self.simulation.count
         self.reach = self._reach_groups()
         self.merger = (
-            TeamMerger(
-                method=self.config.method,
-                interval=self.config.merge_interval,
-                confirmations=self.config.confirmations,
-                rng=merge_rng,
-                estimator=self._estimator(merge_rng),
-            )
+            TeamMerger(self.config, rng=merge_rng, estimator=self._estimator(merge_rng))
             if self.config.merge
             else None
         )
@@ -215,7 +157,7 @@ class TeamSession:
         if method == ORACLE:
             base = oracle_estimator(self.simulation.start_poses)
         elif self.config.tracking and method == DEFAULT_METHOD:
-            base = TrackingEstimator(method=method, worker=self.config.merge_worker, rng=rng)
+            base = TrackingEstimator(self.config, rng=rng)
         if self.config.comms.unlimited:
             return base
 
@@ -241,7 +183,8 @@ class TeamSession:
         self.simulation.step(commands)
         self._grids = None
         self.rewards = self.coverage.reveal([m.take_journal() for m in self.simulation.maps])
-        self.reach = self._reach_groups()
+        if not self.config.comms.unlimited:  # without a range, everyone stays in reach
+            self.reach = self._reach_groups()
         reach = None if self.config.comms.unlimited else self.reach
         scored = None
         if self.merger is not None and self.merger.due(self.steps):

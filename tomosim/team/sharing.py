@@ -10,7 +10,7 @@ accepted estimates only), robot ``i``'s *best map* is, in its own map frame,
 
 Where the robot's own grid knows a cell, its own value is kept; teammates fill
 in only the cells it has not observed (where several teammates know a cell,
-the fusion rule of :mod:`merging.fusion` combines them: known beats unknown,
+the fusion rule of :mod:`merging.linking.fusion` combines them: known beats unknown,
 occupied beats free). Own knowledge comes first because it is in the robot's
 own frame exactly, while teammates' grids arrive through estimated transforms
 and odometry drift of a few decimetres, and because teammates map each other:
@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid
+from merging.validators import whole_number
 from merging.warp import warp_cells
 from tomosim.kernels.crop import crop_max_pool
 from tomosim.team.merger import TeamMerge
@@ -176,20 +177,17 @@ class SharedMaps:
     count : int
         Number of robots.
     refresh_interval : int
-        Steps between rebuilds of a linked robot's teammate layer.
+        Steps between rebuilds of a linked robot's teammate layer (a team's
+        ``TeamConfig.share_interval``).
     """
 
     __slots__ = ("_layers", "_links", "_received", "_refreshed", "count", "refresh_interval")
 
-    def __init__(self, count: int, *, refresh_interval: int = 10) -> None:
-        if count < 1:
-            raise ValueError(f"count must be at least 1 robot, got {count}")
-        if not (isinstance(refresh_interval, int | np.integer) and refresh_interval >= 1):
-            raise ValueError(
-                f"refresh_interval must be a whole number >= 1, got {refresh_interval!r}"
-            )
-        self.count = count
-        self.refresh_interval = int(refresh_interval)
+    def __init__(self, count: int, *, refresh_interval: int) -> None:
+        self.count = whole_number(count, "count", minimum=1, unit="robots")
+        self.refresh_interval = whole_number(
+            refresh_interval, "refresh_interval", minimum=1, unit="steps"
+        )
         self._links: list[dict[int, NDArray[np.float64]]] = [{} for _ in range(count)]
         self._layers: list[tuple[NDArray[np.int8], tuple[int, int]] | None] = [None] * count
         self._refreshed: list[int | None] = [None] * count

@@ -2,7 +2,7 @@
 
 A global search (:func:`merging.estimate_transform`) costs tens to hundreds
 of milliseconds, as long as dozens of simulation steps. The transform
-tracker (:mod:`tomosim.team.tracking`) submits each search when a round
+tracker (:mod:`tomosim.team.link_tracking`) submits each search when a round
 needs it and collects the result at the pair's *next* round, a fixed later
 step; in between, the search runs in a worker process on another core.
 Because the result is collected at a fixed step, whether it ran in the

@@ -6,8 +6,8 @@
 ((2, 2), 0.05)
 """
 
-from tomosim.worlds.config import FloorplanConfig
 from tomosim.worlds.floorplan import generate_floorplan
+from tomosim.worlds.floorplan_config import FloorplanConfig
 from tomosim.worlds.from_map import walls_from_mask, world_from_grid, world_from_map
 from tomosim.worlds.world import World
 

@@ -18,11 +18,12 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from merging.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from tomosim.worlds.config import FloorplanConfig
+from merging.validators import as_generator
+from tomosim.worlds.floorplan_config import FloorplanConfig
 from tomosim.worlds.from_map import world_from_grid
 from tomosim.worlds.layout import Layout, draw_layout
 from tomosim.worlds.paint import box_mask, paint_rectangle
-from tomosim.worlds.world import World, as_generator
+from tomosim.worlds.world import World
 
 AXIS_ALIGNED_PROBABILITY = 0.6
 """Chance that a piece of furniture is parallel to the walls (else at a random angle)."""
@@ -71,7 +72,7 @@ def generate_floorplan(
         height=base.height if height is None else float(height),
         resolution=base.resolution if resolution is None else float(resolution),
     )
-    rng = as_generator(seed)
+    rng = as_generator(seed, name="seed")
     layout = draw_layout(cfg, rng)
     grid = OccupancyGrid(
         np.zeros((1, 1), dtype=np.int8),

@@ -90,12 +90,13 @@ def world_from_grid(
 def world_from_map(
     source: str | Path | OccupancyGrid, *, unknown_is_obstacle: bool = True
 ) -> World:
-    """Turn a ``map_server`` map (YAML path) or a grid into a :class:`World`.
+    """Turn a ``map_server`` map (its YAML path or its name) or a grid into a :class:`World`.
 
     Parameters
     ----------
     source : str, Path or OccupancyGrid
-        A ``map_server`` YAML file (e.g. ``shared/maps/aces3.yaml``) or a grid.
+        A ``map_server`` YAML file, the name of a map of the maps path (``"aces3"``;
+        :func:`merging.catalog.find_map`), or a grid.
     unknown_is_obstacle : bool
         See :func:`world_from_grid`.
 
@@ -108,7 +109,8 @@ def world_from_map(
         return world_from_grid(source, unknown_is_obstacle=unknown_is_obstacle, name="grid")
     if not isinstance(source, str | Path):
         raise TypeError(
-            f"source must be a YAML path or an OccupancyGrid, got {type(source).__name__}"
+            f"source must be a YAML path, a map name or an OccupancyGrid, got "
+            f"{type(source).__name__}"
         )
     grid = load_map(source)
     return world_from_grid(grid, unknown_is_obstacle=unknown_is_obstacle, name=Path(source).stem)

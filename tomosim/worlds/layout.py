@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tomosim.worlds.config import FloorplanConfig
+from tomosim.worlds.floorplan_config import FloorplanConfig
 
 Rect = tuple[float, float, float, float]
 """An axis-aligned box ``(x0, y0, x1, y1)`` in metres, ``x0 < x1``, ``y0 < y1``."""

@@ -22,8 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from merging.grid import OccupancyGrid
-
-RngLike = np.random.Generator | int | None
+from merging.validators import RngLike, as_generator
 
 SAMPLING_BATCH = 64
 """Candidate positions drawn at once when sampling a pose."""
@@ -45,15 +44,6 @@ class NoRoomError(ValueError):
         super().__init__(message)
         self.placed = placed
         self.requested = requested
-
-
-def as_generator(rng: RngLike) -> np.random.Generator:
-    """A ``numpy.random.Generator`` from a Generator, a seed or ``None`` (fresh entropy)."""
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if rng is None or isinstance(rng, int | np.integer):
-        return np.random.default_rng(rng)
-    raise TypeError(f"rng must be a numpy Generator, an int seed or None, got {type(rng).__name__}")
 
 
 def as_segments(walls: ArrayLike, *, name: str = "walls") -> NDArray[np.float64]:

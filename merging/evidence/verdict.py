@@ -1,0 +1,378 @@
+"""Whether the default method vouches for its best placement, and in words why not.
+
+Two ways to vouch, either is enough (the confidence is the larger):
+
+* the **close fit** of :func:`merging.evidence.verify.confidence`: the walls line up
+  within a cell, there is enough of them, no different placement explains
+  nearly as much, they pin the transform down and both maps saw common open
+  space. Window pairs of one map and a robot's growing maps pass this way;
+* the **robust evidence** of :func:`merging.evidence.robust.robust_confidence`: for
+  maps of separate sessions, which bend and draw thick walls, a large
+  overlap whose walls meet within a few cells, whose open space lies on open
+  space, and which no placement farther than the maps bend comes near.
+
+A placement either way would vouch for is then held against map 2's mirror
+image (:mod:`merging.evidence.mirror`): if the mirrored map, laid on the same
+overlap, explains nearly as much, the shared part looks the same in a mirror
+and the placement cannot be told from the mirror twin of that part in a
+mirror-symmetric building, so it is refused. The mirrored map is searched
+for only then, since the search costs as much as the first.
+
+A refused result says why in words (:func:`refusal_reason`): too little
+overlap, ambiguous between two placements a given distance apart or with the
+mirror image, only one wall or corridor to align on, walls that do not meet,
+or walls without shared open space. The numbers behind it are in
+``MergeResult.evidence``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from merging.evidence.mirror import MirrorCandidates, mirror_share
+from merging.evidence.pinning import pinning
+from merging.evidence.refine import SmoothedMap, constraint_strength, turning_strength
+from merging.evidence.robust import (
+    open_cells,
+    open_consistency,
+    robust_confidence,
+    robust_factors,
+    tolerant_fit,
+)
+from merging.evidence.verify import PreparedMap, Verification, confidence_factors, verify
+from merging.params import TomographicParams
+from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
+
+CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
+"""Names of the five factors of :func:`merging.evidence.verify.confidence`, in its order."""
+
+MirrorSearch = Callable[[], MirrorCandidates]
+"""Finds the placements of map 2's overlap part, mirrored, on map 1's (for the placement
+being judged); called at most once, when needed."""
+
+MIRROR_REASON = (
+    "ambiguous: map 2 seen in a mirror fits map 1 about as well; what the maps share "
+    "looks the same in a mirror, so it may be either of two mirror-image parts of the "
+    "building"
+)
+"""Why a placement is refused when its evidence is as good for map 2's mirror image."""
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """The confidence in a placement, whether it is accepted, and why not.
+
+    Attributes
+    ----------
+    confidence : float
+        In ``[0, 1]``: the larger of the close-fit and the robust confidence.
+    accepted : bool
+        ``confidence >= ConfidenceParams.accept``.
+    reason : str
+        Empty when accepted; otherwise one sentence saying why not.
+    evidence : dict
+        The measures and factors behind the verdict (see
+        :attr:`merging.result.MergeResult.evidence`).
+    bent : bool
+        Whether the maps bend against each other where they overlap: the
+        robust evidence (a large overlap whose walls meet within a few
+        cells) vouches for the placement, and more than the close fit does.
+    """
+
+    confidence: float
+    accepted: bool
+    reason: str
+    evidence: dict[str, float]
+    bent: bool = False
+
+
+def judge(
+    first: PreparedMap,
+    second: PreparedMap,
+    smoothed: SmoothedMap,
+    best: NDArray[np.float64],
+    runner_up: tuple[Verification, NDArray[np.float64]] | None,
+    params: TomographicParams,
+    mirror: MirrorSearch | None = None,
+    *,
+    far_runner_up: tuple[Verification, NDArray[np.float64]] | None = None,
+) -> Verdict:
+    """Judge ``best`` (map 2 cells -> map 1 cells) against the best different placement.
+
+    ``runner_up`` is that placement and its verification, or None when the
+    search found no different one (or did not search): one farther than
+    ``TomographicParams.distinct_cells``. The robust evidence, for maps that
+    bend, holds ``best`` against ``far_runner_up`` instead, the best one
+    farther than ``RobustParams.distinct_cells`` (None: there is none).
+    ``mirror``, when
+    given, finds map 2's mirrored placements; it is called only when a way
+    of vouching passes, and then that way must also beat the mirror image:
+    each by ``ConfidenceParams.mirror_margin`` of its evidence in its
+    overlap (:func:`merging.evidence.mirror.mirror_share`), counted as that way
+    counts it: the close fit at the tolerance it used, conflicts weighing
+    against; the robust evidence as walls met within its tolerance.
+    """
+    check = verify(first, second, best, params=params.verify)
+    strength = constraint_strength(smoothed, second, best, local=True, params=params.gauss_newton)
+    other = None if runner_up is None else runner_up[0]
+    fit_quality = check.quality
+    fit_tolerance: int | None = None
+    factors = confidence_factors(check, other, strength=strength, params=params.confidence)
+    if (
+        np.prod(factors) < params.confidence.accept
+        and check.agreeing >= params.confidence.tolerant_support
+    ):
+        # Two independently drawn maps of one building: walls a few cells apart.
+        _, tolerant_quality = tolerant_fit(
+            first, second, best, tolerance=params.confidence.fit_tolerance, params=params.verify
+        )
+        if tolerant_quality > fit_quality:
+            fit_quality, fit_tolerance = tolerant_quality, params.confidence.fit_tolerance
+        factors = confidence_factors(
+            check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
+        )
+    pinned: tuple[float, float] | None = None
+    if np.prod(factors) < params.confidence.accept and factors[3] < params.confidence.pin_below:
+        # A weak curvature: see what sliding the placement a little would cost,
+        # and how firmly its turn alone is held.
+        slide = pinning(first, second, best, params=params.confidence, verify_params=params.verify)
+        turn = turning_strength(smoothed, second, best, local=True, params=params.gauss_newton)
+        pinned = (slide, turn)
+        factors = confidence_factors(
+            check,
+            other,
+            strength=strength,
+            params=params.confidence,
+            fit_quality=fit_quality,
+            pinned=pinned,
+        )
+    close = float(np.prod(factors))
+    twins = _Twins(mirror)
+    evidence: dict[str, float] = {
+        "agreement": check.agreement,
+        "conflict": check.conflict,
+        "quality": check.quality,
+        "fit_quality": fit_quality,
+        "matching_wall_cells": check.agreeing,
+        "shared_open_cells": check.shared_space,
+        "strength": strength,
+        "close_confidence": close,
+    }
+    if pinned is not None:
+        evidence["slide_cost_cells"], evidence["turning_strength"] = pinned
+    evidence.update(
+        {f"close_{name}": value for name, value in zip(CLOSE_FACTORS, factors, strict=True)}
+    )
+    for prefix, competitor in (("", runner_up), ("tolerant_", far_runner_up)):
+        if competitor is not None:
+            evidence[f"{prefix}margin"] = check.score - competitor[0].score
+            evidence[f"{prefix}runner_up_distance_cells"] = _rms_between(
+                best, competitor[1], second.points
+            )
+            turn = matrix_to_pose(best)[2] - matrix_to_pose(competitor[1])[2]
+            evidence[f"{prefix}runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
+    accept = params.confidence.accept
+    vouched = close >= accept
+    if close >= accept and twins.available:
+        share = mirror_share(
+            first, second, best, twins.found(), tolerance=fit_tolerance, params=params.verify
+        )
+        chiral = _mirror_factor(share, params)
+        evidence.update({"mirror_share": share, "close_mirror": chiral})
+        close *= chiral
+        evidence["close_confidence"] = close
+    robust = 0.0
+    robust_scores: dict[str, float] = {}
+    if close < accept:
+        bounded, robust_scores = _robust(
+            first, second, smoothed, best, check, evidence, params, at_most=close
+        )
+        robust = 0.0 if bounded is None else bounded
+        vouched = vouched or robust >= accept
+        if robust >= accept and twins.available:
+            share = mirror_share(
+                first,
+                second,
+                best,
+                twins.found(),
+                tolerance=params.robust.tolerance,
+                conflict_weight=0.0,
+                params=params.verify,
+            )
+            evidence["tolerant_mirror_share"] = share
+            robust_scores["mirror"] = _mirror_factor(share, params)
+            robust = min(robust, robust_scores["mirror"])
+        if bounded is not None:
+            evidence["robust_confidence"] = robust
+        evidence.update({f"robust_{name}": value for name, value in robust_scores.items()})
+    value = max(close, robust)
+    accepted = value >= accept
+    if accepted:
+        reason = ""
+    elif vouched:
+        # Either way vouched until held against the mirror image: that is why.
+        reason = MIRROR_REASON
+    else:
+        reason = refusal_reason(factors, robust_scores, evidence)
+    bent = robust >= accept and robust > close
+    return Verdict(value, accepted, reason, evidence, bent)
+
+
+class _Twins:
+    """Map 2's mirrored placements, searched for at most once and only when asked."""
+
+    __slots__ = ("_found", "_search")
+
+    def __init__(self, search: MirrorSearch | None):
+        self._search = search
+        self._found: MirrorCandidates | None = None
+
+    @property
+    def available(self) -> bool:
+        return self._search is not None
+
+    def found(self) -> MirrorCandidates:
+        if self._found is None:
+            assert self._search is not None
+            self._found = self._search()
+        return self._found
+
+
+def _mirror_factor(share: float, params: TomographicParams) -> float:
+    """One half when the evidence map 2's mirror image leaves unexplained is the margin.
+
+    The logistic of ``1 - share`` centred at ``ConfidenceParams.mirror_margin``,
+    as wide as the distinctiveness factor's.
+    """
+    confidence = params.confidence
+    value = (1.0 - share) - confidence.mirror_margin
+    return float(1.0 / (1.0 + np.exp(-value / confidence.distinct_width)))
+
+
+def _robust(
+    first: PreparedMap,
+    second: PreparedMap,
+    smoothed: SmoothedMap,
+    best: NDArray[np.float64],
+    check: Verification,
+    evidence: dict[str, float],
+    params: TomographicParams,
+    *,
+    at_most: float,
+) -> tuple[float | None, dict[str, float]]:
+    """The robust confidence of ``best`` and its factors; adds its measures to ``evidence``.
+
+    The confidence is the weakest factor, so when one of the three that cost
+    nothing (the margin, the agreeing walls, the shared open space) is
+    already at most ``at_most`` (the close fit's confidence), the robust way
+    can neither vouch nor raise the confidence: the costly measures are left
+    out and the confidence is None. The constraint strength is still
+    measured when the margin passes, as the refusal's reason may rest on it
+    (:func:`refusal_reason`).
+    """
+    robust = params.robust
+    smaller = min(open_cells(first), open_cells(second))
+    measures = {
+        # With no different placement at all, nothing competes: the margin passes.
+        "margin": evidence.get("tolerant_margin", robust.margin + 1.0),
+        "agreeing": check.agreeing,
+        "open_share": check.shared_space / (2.0 * smaller) if smaller > 0 else 0.0,
+    }
+    cheap = robust_factors(measures, robust)
+    settled = min(cheap.values()) <= at_most
+    if not settled or cheap["margin"] >= 0.5:
+        strength = evidence["strength"]
+        for width in robust.strength_widths:
+            wider = replace(params.gauss_newton, curvature_sigma=width, curvature_step=width)
+            wide = constraint_strength(smoothed, second, best, local=True, params=wider)
+            strength = max(strength, wide * width**2)
+        measures["strength"] = strength
+    if not settled:
+        agreement, quality = tolerant_fit(
+            first, second, best, tolerance=robust.tolerance, params=params.verify
+        )
+        measures.update(
+            agreement=agreement,
+            quality=quality,
+            open_consistency=open_consistency(first, second, best),
+        )
+    evidence.update({f"tolerant_{k}": v for k, v in measures.items() if k != "margin"})
+    if settled:
+        return None, robust_factors(measures, robust)
+    return robust_confidence(measures, robust)
+
+
+REASON_ORDER = ("fit", "support", "constraint", "distinct", "space")
+"""The close-fit factors in the order a refusal names them when several fail."""
+
+
+def refusal_reason(
+    close: tuple[float, ...], robust: dict[str, float], evidence: dict[str, float]
+) -> str:
+    """One sentence saying why a placement is not vouched for.
+
+    The first failing factor of the close fit, in :data:`REASON_ORDER`,
+    names the cause. When that is the fit itself (the walls do not meet
+    within a cell or so) and the robust way was tried too, its failing
+    factors refine it. Too few walls meeting within its tolerance comes
+    first (a rival placement is no news for a placement that explains
+    little: two maps of different buildings have many such); then a rival
+    placement about as good means ambiguity, a weak constraint a single
+    wall or corridor.
+    """
+    values = dict(zip(CLOSE_FACTORS, close, strict=True))
+    failing = [name for name in REASON_ORDER if values[name] < 0.5]
+    cause = failing[0] if failing else min(values, key=lambda name: values[name])
+    few_walls = little_space = False
+    competitor = ""  # the close fit's runner-up; "tolerant_" for the robust way's
+    if cause == "fit" and robust:
+        weak = {name for name, value in robust.items() if value < 0.5}
+        few_walls, little_space = "agreeing" in weak, "open_share" in weak
+        if few_walls and values["support"] < 0.5:
+            cause = "support"
+        elif few_walls or little_space:
+            cause = "fit"
+        elif "margin" in weak:
+            cause = "distinct"
+        else:
+            cause = "constraint" if "strength" in weak else "fit"
+        competitor = "tolerant_"
+    if cause == "distinct":
+        distance = evidence.get(f"{competitor}runner_up_distance_cells", 0.0)
+        turn = round(evidence.get(f"{competitor}runner_up_turn_deg", 0.0))
+        turned = f", turned {turn} degree{'' if turn == 1 else 's'} from it" if turn >= 1 else ""
+        return (
+            "ambiguous: another placement about as good lies "
+            f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
+            "symmetric part of the building"
+        )
+    if cause == "fit" and few_walls:
+        return (
+            "the walls do not line up: too few of them meet, even allowing a few cells for "
+            "maps drawn in separate sessions"
+        )
+    if cause == "fit" and little_space:
+        return (
+            "the walls do not line up closely, and the maps share too little open space to "
+            "vouch for maps drawn in separate sessions"
+        )
+    return {
+        "fit": "the walls do not line up: too many of them land on the other map's open "
+        "space (the maps disagree where they would overlap)",
+        "support": "too little overlap: too few walls line up to be sure of the placement",
+        "constraint": "only one wall or corridor to align on: the maps could slide along it",
+        "space": "the maps share walls but no open space: they may show two neighbouring "
+        "rooms side by side",
+    }[cause]
+
+
+def _rms_between(
+    a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]
+) -> float:
+    """RMS distance, in cells, between where ``a`` and ``b`` put ``points``."""
+    diff = apply_transform(a, points) - apply_transform(b, points)
+    return float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))

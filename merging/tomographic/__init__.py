@@ -1,0 +1,21 @@
+"""The default method, ``method="tomographic"``: the paper's ideas, made robust and fast.
+
+:mod:`~merging.tomographic.angular`
+    Rotation hypotheses from angular spectra: the sinogram's columns through
+    the Fourier slice theorem.
+:mod:`~merging.tomographic.correlate`
+    Translation hypotheses from the correlation of every projection at once.
+:mod:`~merging.tomographic.search`
+    The pipeline: rotations, translations, screening, refinement and the
+    verdict (:func:`tomographic_merge`).
+:mod:`~merging.tomographic.tracking`
+    Following a known transform between two growing maps (:func:`track_transform`).
+
+The placement is judged by :mod:`merging.evidence`. Importing this package
+registers the method with :func:`merging.estimate_transform`.
+"""
+
+from merging.tomographic.search import tomographic_merge
+from merging.tomographic.tracking import track_transform
+
+__all__ = ["tomographic_merge", "track_transform"]

@@ -1,0 +1,147 @@
+"""The default merger recovers known transforms, with the sign pinned, and says when it cannot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import merging
+from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
+from merging.evidence.verify import prepare_map
+from merging.tomographic.correlate import _suppress, coarsen, translation_peaks
+from merging.transforms import matrix_to_pose
+from tests.merging.builders import synthetic_building, turned
+
+RIGHT_CELLS = 2.0
+"""A transform is right when it puts map 2's walls within 2 cells RMS of the truth."""
+
+
+@pytest.mark.parametrize("degrees", [-179.0, -135.0, -90.0, -33.0, 0.0, 12.5, 71.0, 118.0, 180.0])
+def test_recovers_rotations_over_the_full_circle(building: np.ndarray, degrees: float) -> None:
+    map2, truth = turned(building, degrees, (7.0, -11.0))
+    result = merging.estimate_transform(building, map2)
+    rms, rotation_error = transform_error(result.matrix, truth, map2)
+    assert rms < RIGHT_CELLS
+    assert result.accepted
+    # Sign pinned: map 2 shows map 1 turned by +degrees, so T turns by -degrees.
+    assert np.isclose(
+        np.rad2deg(np.angle(np.exp(1j * (result.rotation + np.deg2rad(degrees))))), 0.0, atol=0.5
+    )
+    assert rotation_error < 0.5
+
+
+def test_identity_for_identical_maps(building: np.ndarray) -> None:
+    result = merging.estimate_transform(building, building)
+    dx, dy, theta = matrix_to_pose(result.matrix)
+    assert abs(dx) < 0.5 and abs(dy) < 0.5 and abs(theta) < np.deg2rad(0.2)
+    assert result.accepted and result.confidence > 0.9
+
+
+def test_subcell_accuracy_on_a_pure_shift() -> None:
+    grid = synthetic_building(8)
+    map2, truth = turned(grid, 0.0, (3.0, 5.0))
+    result = merging.estimate_transform(grid, map2)
+    assert transform_error(result.matrix, truth, map2)[0] < 0.5
+
+
+def test_symmetric_room_is_not_accepted() -> None:
+    # A bare square room looks the same after every quarter turn: any answer is a guess.
+    grid = np.full((120, 120), -1, dtype=np.int8)
+    grid[10:110, 10:110] = 0
+    grid[10, 10:110] = grid[109, 10:110] = 100
+    grid[10:110, 10] = grid[10:110, 109] = 100
+    map2, _ = turned(grid, 90.0, (0.0, 0.0))
+    result = merging.estimate_transform(grid, map2)
+    assert not result.accepted
+    assert result.reason
+
+
+def test_single_wall_is_not_accepted() -> None:
+    # One straight wall fixes neither the position along it nor, well, much else.
+    grid = np.full((100, 160), -1, dtype=np.int8)
+    grid[30:70, :] = 0
+    grid[50, 20:140] = 100
+    map2, _ = turned(grid, 30.0, (4.0, 2.0))
+    result = merging.estimate_transform(grid, map2)
+    assert not result.accepted
+
+
+def test_maps_of_different_places_are_not_accepted() -> None:
+    result = merging.estimate_transform(synthetic_building(1), synthetic_building(2))
+    assert not result.accepted
+
+
+def test_reports_stage_timings_and_hypotheses(building: np.ndarray) -> None:
+    map2, _ = turned(building, 40.0, (0.0, 0.0))
+    result = merging.estimate_transform(building, map2)
+    assert {"rotation", "translation", "refine", "total"} <= set(result.timings)
+    assert len(result.hypotheses) >= 2
+    assert result.hypotheses[0].score >= result.hypotheses[1].score
+
+
+@pytest.mark.slow
+def test_window_pairs_of_real_maps(maps_folder) -> None:
+    # The section 4.1 protocol on two real maps: every accepted merge must be right.
+    right = accepted_wrong = 0
+    total = 0
+    for name in ("intel", "aces3"):
+        whole = merging.load_map(maps_folder / f"{name}.yaml")
+        for pair in cut_window_pairs(whole.data, count=4, rng=17):
+            result = merging.estimate_transform(pair.map1, pair.map2)
+            good = transform_error(result.matrix, pair.truth, pair.map2)[0] <= RIGHT_CELLS
+            right += good
+            accepted_wrong += result.accepted and not good
+            total += 1
+    assert accepted_wrong == 0
+    assert right >= total - 1
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"count": -2}, "count must be a whole number"),
+        ({"count": 2.5}, "count must be a whole number"),
+        ({"count": 1, "overlap_range": (0.5, 0.2)}, "overlap_range must be"),
+        ({"count": 1, "size_fraction": (0.3, 1.5)}, "size_fraction must be"),
+    ],
+)
+def test_window_pairs_refuse_impossible_requests_at_once(building, options, message) -> None:
+    # A negative count was never reached: the search ran its 20000 tries, keeping pairs.
+    with pytest.raises(ValueError, match=message):
+        cut_window_pairs(building, **options)
+
+
+def test_real_map_turned_by_known_angles(maps_folder) -> None:
+    whole = merging.load_map(maps_folder / "intel.yaml").data
+    for degrees in (-150.0, 65.0):
+        map2, truth = turned(whole, degrees, (5.0, 12.0))
+        result = merging.estimate_transform(whole, map2)
+        assert transform_error(result.matrix, truth, map2)[0] < RIGHT_CELLS
+        assert result.accepted
+
+
+@pytest.mark.parametrize("degrees", [0.0, 17.0, 90.0, 133.0, 251.0])
+def test_half_turn_twin_from_one_transform(building: np.ndarray, degrees: float) -> None:
+    # The twin's peaks come from a convolution with the unturned image; they must be
+    # the peaks a correlation with the image turned by the further half turn finds.
+    first = coarsen(prepare_map(building[:, :200]), 3)
+    second = coarsen(prepare_map(building[40:, 120:]), 3)
+    theta = np.deg2rad(degrees)
+    _, twin = translation_peaks(first, second, theta, count=3)
+    direct, _ = translation_peaks(first, second, theta + np.pi, count=3)
+    assert len(twin) == len(direct) == 3
+    for twin_peak, peak in zip(twin, direct, strict=True):
+        assert np.allclose(twin_peak.matrix, peak.matrix, atol=1e-9)
+        assert twin_peak.mass == pytest.approx(peak.mass, abs=1e-5)
+
+
+@pytest.mark.parametrize(("row", "col"), [(5, 7), (0, 0), (1, 18), (9, 19), (4, 2)])
+def test_peak_suppression_wraps_around_the_surface(row: int, col: int) -> None:
+    surface = np.zeros((10, 20), dtype=np.float32)
+    _suppress(surface, row, col, 2)
+    expected = np.zeros_like(surface)
+    rows = np.arange(row - 2, row + 3) % 10
+    cols = np.arange(col - 2, col + 3) % 20
+    expected[np.ix_(rows, cols)] = -np.inf
+    assert np.array_equal(surface, expected)

@@ -1,0 +1,65 @@
+"""``scripts/bench_cycles.py``: cycles of three accepted answers, and how far they miss."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from merging.transforms import rigid_matrix
+from tests.support import load_script
+
+
+def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> None:
+    bench = load_script("bench_cycles")
+    walls = np.zeros((60, 60), dtype=np.int8)
+    walls[10, 5:55] = walls[5:55, 40] = 100
+    grids = {name: walls for name in "abcd"}
+    b_in_a, c_in_b = rigid_matrix(12.0, -3.0, 0.2), rigid_matrix(-4.0, 7.0, -0.5)
+
+    def answer(first: str, second: str, matrix, accepted: bool = True):
+        return bench.Answer("F", first, second, "m", accepted, 0.9, 0.01, matrix, "")
+
+    consistent = [
+        answer("a", "b", b_in_a),
+        answer("b", "c", c_in_b),
+        answer("a", "c", b_in_a @ c_in_b),
+        answer("a", "d", np.eye(3), accepted=False),  # no cycle through a refused pair
+    ]
+    [(a, b, c, error)] = bench.cycles(consistent, grids)
+    assert (a, b, c) == ("a", "b", "c") and error < 1e-9
+    wrong = [*consistent[:2], answer("a", "c", rigid_matrix(300.0, 0.0, 0.0) @ b_in_a @ c_in_b)]
+    [(_, _, _, error)] = bench.cycles(wrong, grids)
+    assert error > bench.WRONG_CELLS
+    lines = bench.report(wrong, {("F", "m"): bench.cycles(wrong, grids)}, 30.0)
+    assert "| F | m | 3 | 3 | 1 |" in lines[2] and "a -> b -> c" in lines[-1]
+
+
+def test_unknown_methods_are_named(capsys, tmp_path, maps_folder) -> None:
+    bench = load_script("bench_cycles")
+    status = bench.main(["--methods", "nonesuch", "--floors", "HIH", "--out", str(tmp_path)])
+    assert status == 2 and "nonesuch" in capsys.readouterr().err
+    assert not (tmp_path / "pairs.csv").exists()
+
+
+def test_without_the_shared_maps_the_scripts_say_where_they_looked(monkeypatch) -> None:
+    from tomosim.commands import CommandError, script_args
+
+    monkeypatch.setattr("tomosim.data.maps_dir", lambda: None)
+    with pytest.raises(CommandError, match="maps"):
+        script_args.shared_maps()
+
+
+@pytest.mark.slow
+def test_sessions_linked_at_once_are_judged_against_the_floor_s_truth(
+    maps_folder, tmp_path, capsys
+) -> None:
+    bench = load_script("bench_linking")
+    sessions = ["E5_01", "E5_02", "E5_03"]
+    assert bench.main(["--sessions", *sessions, "--out", str(tmp_path)]) == 0
+    report = (tmp_path / "linking.md").read_text()
+    rows = (tmp_path / "linking.csv").read_text().splitlines()
+    assert "| implied by the linking (sessions linked) |" in report
+    known = [line for line in rows[1:] if line.split(",")[0].count("E5_") == 2]
+    assert len(known) == len(rows) - 1 >= 3
+    assert bench.main(["--sessions", "E5_01", "E5_99", "--out", str(tmp_path)]) == 2
+    assert "E5_99" in capsys.readouterr().err

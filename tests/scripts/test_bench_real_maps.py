@@ -1,0 +1,29 @@
+"""``scripts/bench_real_maps.py``'s summary: per group, and over a suite's groups pooled."""
+
+from __future__ import annotations
+
+from tests.support import load_script
+
+
+def test_a_suite_of_two_groups_ends_with_their_pooled_medians() -> None:
+    bench = load_script("bench_real_maps")
+
+    def row(group: str, method: str, seconds: float):
+        return bench.Row(
+            "low-overlap", group, "p", method, 1.0, 2.0, "yes", True, 0.9, seconds, seconds, 0.0, ""
+        )
+
+    # One method twice as fast in each group, yet slower over both together: the
+    # other's times are spread across the groups.
+    rows = [row("a", "default", t) for t in (0.010, 0.011, 0.012)]
+    rows += [row("a", "other", t) for t in (0.020, 0.022, 0.024)]
+    rows += [row("b", "default", t) for t in (0.008, 0.009, 0.010)]
+    rows += [row("b", "other", t) for t in (0.001, 0.002, 0.003)]
+    lines = bench.summary_table(rows, ["default", "other"])
+    pooled = {line.split(" | ")[1]: line for line in lines if line.startswith("| all pairs |")}
+    assert set(pooled) == {"default", "other"}
+    # Medians over six pairs: default 0.0100, other 0.0115 (printed 0.011).
+    assert "| 0.010 |" in pooled["default"] and "| 1.00 |" in pooled["default"]
+    assert "| 0.011 |" in pooled["other"] and "| 1.15 |" in pooled["other"]
+    single = bench.summary_table([r for r in rows if r.group == "a"], ["default", "other"])
+    assert not any(line.startswith("| all pairs |") for line in single)

@@ -1,0 +1,292 @@
+"""Transform tracking between merge rounds, and global searches in the worker process."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from merging.tomographic.tracking import METHOD as TRACKED
+from tomosim.exploration import FrontierPolicy
+from tomosim.team import TeamConfig, TeamSession, TrackingParams
+from tomosim.team.quality import RoundQuality
+from tomosim.team.worker import InlineSearches, WorkerSearches, searches
+from tomosim.worlds import generate_floorplan
+
+STEPS = 250
+"""Steps of the tracked episode: ten merge rounds at interval 25."""
+RIGHT_DEG, RIGHT_M = 2.0, 0.2
+"""An accepted merge must be this close to the truth (the exploration's accuracy goal)."""
+STEADY_DEG, STEADY_M = 0.5, 0.05
+"""How far a tracked transform may move between two rounds: odometry drift only."""
+INLINE = TeamConfig(merge_worker=False)
+"""A team whose global searches run inline."""
+
+
+def explore(*, worker: bool) -> tuple[list[RoundQuality], float]:
+    """Two robots exploring a small floor with the frontier policy, merging every 25 steps."""
+    world = generate_floorplan(1, width=15.0, height=10.0)
+    config = TeamConfig(merge_interval=25, merge_worker=worker)
+    session = TeamSession(world, robots=2, config=config, rng=3)
+    policies = [FrontierPolicy() for _ in range(2)]
+    rounds = []
+    for _ in range(STEPS):
+        sim = session.simulation
+        commands = [
+            policy.act(sim.odometry[k].pose, session.best_map(k), scan=sim.scans[k])
+            for k, policy in enumerate(policies)
+        ]
+        scored = session.step(commands)
+        if scored is not None:
+            rounds.append(scored)
+    return rounds, session.coverage.fraction
+
+
+@pytest.fixture(scope="module")
+def tracked() -> tuple[list[RoundQuality], float]:
+    return explore(worker=True)
+
+
+@pytest.mark.slow
+def test_worker_and_inline_searches_give_the_same_run(
+    tracked: tuple[list[RoundQuality], float],
+) -> None:
+    inline, coverage = explore(worker=False)
+    rounds, worker_coverage = tracked
+    assert coverage == worker_coverage
+    for a, b in zip(rounds, inline, strict=True):
+        assert a.pairs == b.pairs
+        np.testing.assert_array_equal(a.merge.merged.data, b.merge.merged.data)
+
+
+def test_a_linked_pair_is_tracked_accurately_and_steadily(
+    tracked: tuple[list[RoundQuality], float],
+) -> None:
+    rounds, _ = tracked
+    pairs = [r.pairs[0] for r in rounds]
+    methods = [r.merge.pairs[0].result.method for r in rounds]
+    # The first search runs until the next round: nothing can be accepted at once.
+    assert not pairs[0].accepted
+    assert TRACKED in methods and sum(p.confirmed for p in pairs) >= 5
+    for pair in pairs:
+        if pair.accepted:
+            assert pair.rotation_error_deg <= RIGHT_DEG and pair.translation_error_m <= RIGHT_M
+    for before, after, method in zip(pairs, pairs[1:], methods[1:], strict=False):
+        if method == TRACKED and before.accepted:  # tracked on from an accepted transform
+            turn = abs(after.estimate[2] - before.estimate[2])
+            shift = np.hypot(*np.subtract(after.estimate[:2], before.estimate[:2]))
+            assert np.degrees(turn) <= STEADY_DEG and shift <= STEADY_M
+
+
+def test_searches_are_collected_later_with_their_results() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    assert isinstance(searches(worker=False), InlineSearches)
+    assert isinstance(searches(worker=True), WorkerSearches)
+    inline = InlineSearches().submit(grid, grid, method="tomographic", seed=1).result()
+    first = WorkerSearches().submit(grid, grid, method="tomographic", seed=1)
+    second = WorkerSearches().submit(grid, grid, method="tomographic", seed=1)
+    assert first.result(timeout=120).confidence == inline.confidence
+    np.testing.assert_array_equal(second.result(timeout=120).matrix, inline.matrix)
+    failing = WorkerSearches().submit(grid, grid, method="no such method", seed=1)
+    with pytest.raises(ValueError, match="unknown merging method"):
+        failing.result(timeout=120)
+
+
+def test_the_worker_says_when_it_is_ready_and_then_runs_the_searches() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    with pytest.raises(ValueError, match="timeout"):
+        WorkerSearches.wait_ready(-1.0)
+    assert WorkerSearches.wait_ready(60.0)
+    job = WorkerSearches().submit(grid, grid, method="tomographic", seed=3)
+    expected = InlineSearches().submit(grid, grid, method="tomographic", seed=3).result()
+    # A ready, idle worker is sent the job at once: it is no longer there to take back.
+    deadline = time.monotonic() + 60.0
+    while WorkerSearches.worker().queued and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert WorkerSearches.worker().take(job) is None
+    np.testing.assert_array_equal(job.result(timeout=60.0).matrix, expected.matrix)
+
+
+def test_a_waiting_caller_runs_the_searches_the_worker_has_not_started() -> None:
+    from merging.grid import OccupancyGrid
+
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    inline = [
+        InlineSearches().submit(grid, grid, method="tomographic", seed=seed).result()
+        for seed in range(4)
+    ]
+    worker = WorkerSearches()
+    jobs = [worker.submit(grid, grid, method="tomographic", seed=seed) for seed in range(4)]
+    # The worker runs one search at a time: waiting for the first, this process runs
+    # later ones the worker has not started (which, depends on timing), and wherever
+    # a search ran, its result is the same.
+    first = worker.wait(jobs[0], jobs[1:])
+    assert first.confidence == inline[0].confidence
+    for job, expected in zip(jobs[1:], inline[1:], strict=True):
+        np.testing.assert_array_equal(worker.wait(job, []).matrix, expected.matrix)
+    failing = worker.submit(grid, grid, method="no such method", seed=1)
+    with pytest.raises(ValueError, match="unknown merging method"):
+        worker.wait(failing, [])
+
+
+def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from concurrent.futures import Future
+
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from tomosim.team import worker as worker_module
+
+    def overflowing(*args: object, **kwargs: object) -> MergeResult:
+        np.exp(np.float64(1000.0))  # a RuntimeWarning: an error under this suite's filters
+        return MergeResult(np.eye(3), 0.0, False, "tomographic")
+
+    monkeypatch.setattr(worker_module, "estimate_transform", overflowing)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    taken: Future[MergeResult] = Future()
+    with pytest.warns(RuntimeWarning, match="overflow"):
+        worker_module._search((grid, grid, "tomographic", 1), taken, as_worker=True)
+    assert taken.exception() is None and not taken.result().accepted
+
+
+@pytest.mark.slow
+def test_searches_come_back_when_the_worker_has_ended(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A killed worker failed every search with RuntimeError, and `tomosim explore`
+    # ended in a traceback; its searches now run here, with the same results.
+    from merging.grid import OccupancyGrid
+    from tomosim.team import worker as worker_module
+
+    own = worker_module._Worker()  # a worker of this test's own, not the shared one
+    monkeypatch.setattr(WorkerSearches, "_worker", own)
+    walls = np.zeros((60, 80), np.int8)
+    walls[5, 5:70] = walls[5:50, 5] = walls[50, 5:40] = walls[20:50, 60] = 100
+    grid = OccupancyGrid(walls, resolution=0.05)
+    searches_ = WorkerSearches()
+    assert WorkerSearches.wait_ready(60.0)
+    sent = searches_.submit(grid, grid, method="tomographic", seed=0)
+    own.process.kill()
+    own.process.wait(timeout=60)
+    later = [searches_.submit(grid, grid, method="tomographic", seed=s) for s in (1, 2)]
+    for seed, job in enumerate([sent, *later]):
+        expected = InlineSearches().submit(grid, grid, method="tomographic", seed=seed).result()
+        np.testing.assert_array_equal(searches_.wait(job, later).matrix, expected.matrix)
+    assert "merge search worker ended" in caplog.text
+    for pipe in (own.process.stdin, own.process.stdout):
+        assert pipe is not None
+        pipe.close()
+
+
+@pytest.mark.parametrize(
+    "quality, team, starts",
+    [
+        (0.95, INLINE, True),
+        (0.7, INLINE, False),
+        # The bar is the team's tracker setting: lowered below the fit, the track starts.
+        (0.7, TeamConfig(merge_worker=False, tracker=TrackingParams(new_track_quality=0.65)), True),
+    ],
+)
+def test_a_searched_placement_starts_a_track_only_when_it_fits_closely(
+    monkeypatch: pytest.MonkeyPatch, quality: float, team: TeamConfig, starts: bool
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from tomosim.team import link_tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    placed[0, 2] = 10.0
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
+    # The track's verdict accepts, fitting as closely as ``quality`` says (a tolerant fit
+    # of bent maps can accept what the plain fit does not).
+    verdict = MergeResult(placed, 0.8, True, TRACKED, placed, evidence={"quality": quality})
+    monkeypatch.setattr(tracking_module, "track_transform", lambda *a, **k: verdict)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(team, rng=0)
+    first = estimator(0, 1, grid, grid)  # submits the search
+    second = estimator(0, 1, grid, grid)  # collects it and tracks from it
+    assert not first.accepted
+    assert second.accepted is starts
+    if not starts:
+        assert second.reason == (
+            "the search's placement fits too loosely to start tracking (plain fit 0.70, "
+            "below 0.80); no new walls since the last global search"
+        )
+
+
+def test_a_track_is_kept_at_a_confidence_a_new_placement_would_not_reach(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.params import DEFAULT_PARAMS
+    from merging.result import MergeResult
+    from tomosim.team import link_tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    placed[0, 2] = 10.0
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
+    confidence = {"now": 0.9}
+
+    def verified(map1: object, map2: object, start: object, *, params: object) -> MergeResult:
+        # The verdict track_transform would give at ``params``' threshold.
+        accept = params.confidence.accept  # type: ignore[attr-defined]
+        value = confidence["now"]
+        return MergeResult(
+            placed, value, value >= accept, TRACKED, placed, evidence={"quality": 0.9}
+        )
+
+    monkeypatch.setattr(tracking_module, "track_transform", verified)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(INLINE, rng=0)
+    estimator(0, 1, grid, grid)  # submits the search
+    assert estimator(0, 1, grid, grid).accepted  # collects it: the track starts at 0.9
+    between = (INLINE.tracker.keep_confidence + DEFAULT_PARAMS.confidence.accept) / 2
+    confidence["now"] = between
+    assert estimator(0, 1, grid, grid).accepted  # the track is kept
+    confidence["now"] = INLINE.tracker.keep_confidence - 0.01
+    lost = estimator(0, 1, grid, grid)
+    assert not lost.accepted  # and dropped below the keeping threshold
+    assert "which was not accepted" not in lost.reason  # the search was; the track is lost
+
+
+def test_a_new_placement_needs_the_acceptance_threshold_to_start_a_track(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.params import DEFAULT_PARAMS
+    from merging.result import MergeResult
+    from tomosim.team import link_tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    monkeypatch.setattr(worker_module, "estimate_transform", lambda *a, **k: searched)
+    between = (INLINE.tracker.keep_confidence + DEFAULT_PARAMS.confidence.accept) / 2
+
+    def verified(map1: object, map2: object, start: object, *, params: object) -> MergeResult:
+        accept = params.confidence.accept  # type: ignore[attr-defined]
+        return MergeResult(
+            placed, between, between >= accept, TRACKED, placed, evidence={"quality": 0.9}
+        )
+
+    monkeypatch.setattr(tracking_module, "track_transform", verified)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(INLINE, rng=0)
+    estimator(0, 1, grid, grid)
+    assert not estimator(0, 1, grid, grid).accepted
