@@ -211,22 +211,23 @@ def translation_peaks(
     target = first.target_spectrum(size)
     forward = padded_rfft2(moving, size)
     mass = float(moving.sum())
-    correlation = fft.irfft2(target * np.conj(forward), s=size)
+    backward = np.conj(forward)
+    correlation = fft.irfft2(target * backward, s=size)
     convolution = fft.irfft2(target * forward, s=size)
     surfaces = [correlation, convolution]
     if significant > 0:
         known = first.known_spectrum(size)
-        landing = (
-            fft.irfft2(known * np.conj(forward), s=size),
-            fft.irfft2(known * forward, s=size),
-        )
         # Scaled by map 2's whole mass to the same power, so that a shift laying all
         # of map 2 on map 1's observed part keeps its collected mass.
         scale = mass**overlap_power
-        surfaces += [
-            surface * (scale / np.maximum(land, min_overlap_blocks) ** overlap_power)
-            for surface, land in zip(surfaces, landing, strict=True)
-        ]
+        for surface, spectrum in ((correlation, backward), (convolution, forward)):
+            # In place: scale / max(landing, min_overlap_blocks) ** power * surface.
+            land = fft.irfft2(known * spectrum, s=size)
+            np.maximum(land, min_overlap_blocks, out=land)
+            np.power(land, overlap_power, out=land)
+            np.divide(scale, land, out=land)
+            land *= surface
+            surfaces.append(land)
     # Turned a further half turn, a point in cell c of this image lies at -rotated,
     # in cell -rotated - low_twin = extent - c of the twin's image: correlating with
     # that mirrored image at shift s is convolving with this one at s + extent.
@@ -239,10 +240,11 @@ def translation_peaks(
         ranked = None
         if significant > 0:
             ranked = surfaces[k + 2] if k == 0 else np.roll(surfaces[k + 2], roll, axis=(0, 1))
-        collected = mass_surface.copy() if ranked is not None else mass_surface
         found = _peaks(mass_surface, frame, count, significance=ranked)
         if ranked is not None:
-            found += _peaks(ranked, frame, significant, taken=found, scores=collected)
+            # The mass surface is suppressed only around its own peaks, which the
+            # significant ones keep away from: it still holds their masses.
+            found += _peaks(ranked, frame, significant, taken=found, scores=mass_surface)
         turns.append([peak for peak, _ in found])
     return turns[0], turns[1]
 
