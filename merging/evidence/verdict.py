@@ -136,7 +136,14 @@ def judge(
             check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
         )
     pinned: tuple[float, float] | None = None
-    if np.prod(factors) < params.confidence.accept and factors[3] < params.confidence.pin_below:
+    # Sliding and turning bear on the constraint factor alone: measure them only when
+    # the other factors leave the placement a chance.
+    unconstrained = float(np.prod(factors)) / max(factors[3], 1e-12)
+    if (
+        np.prod(factors) < params.confidence.accept
+        and factors[3] < params.confidence.pin_below
+        and unconstrained >= params.confidence.accept
+    ):
         # A weak curvature: see what sliding the placement a little would cost,
         # and how firmly its turn alone is held.
         slide = pinning(first, second, best, params=params.confidence, verify_params=params.verify)
