@@ -384,7 +384,7 @@ def _merge_observed(
     close = _close_alternative(maps, pool)
     if close is None:
         return result
-    pool = [pool[close], *pool[:close], *pool[close + 1 :]]
+    pool = [_finished(maps, pool[close]), *pool[:close], *pool[close + 1 :]]
     alternative = _judged_first(maps, pool, hypotheses, timings)
     return alternative if alternative.accepted else result
 
@@ -416,6 +416,20 @@ def _close_alternative(maps: _Maps, pool: list[Candidate]) -> int | None:
         if _rms_between(matrix, best, maps.second.points) > params.distinct_cells:
             chosen, most = k, check.net
     return chosen
+
+
+def _finished(maps: _Maps, candidate: Candidate) -> Candidate:
+    """``candidate`` refined on the narrow fields the winner of the schedule was refined on.
+
+    The schedule refines only its best few on its narrow fields
+    (:data:`merging.params.DEFAULT_STAGES`); a placement of the pool judged
+    after the winner may have seen only the widest field's first steps, a
+    cell or two from its optimum, and over a small overlap that becomes two
+    cells or more at map 2's far walls.
+    """
+    for stage in maps.params.stages[1:]:
+        candidate = maps.refine(candidate, stage)
+    return candidate
 
 
 def _runners_up(
