@@ -374,6 +374,19 @@ class ConfidenceParams:
         Window pairs sharing 3-15 % whose placements were pinned by a turn
         of 11 were accepted 2-4 cells off at 10 (seeds 1001-3003 of
         ``scripts/bench_real_maps.py low-overlap``).
+    max_lever : float
+        Largest lever arm (:func:`merging.evidence.pinning.lever_arm`: how
+        many times farther map 2's walls lie from the overlap than the
+        overlap's own) at which a close fit may vouch for a placement. The
+        narrowest refinement field places the overlap's walls to about a
+        tenth of a cell (median; :data:`DEFAULT_STAGES`), a sixth in the
+        tail; a turn of that size at the overlap's rim moves walls this many
+        times farther out by this many times as much, so beyond
+        2 / (1/6) = 12 the accuracy a merge is asked for (2 cells) is not
+        held. On the low-overlap window pairs of seeds 41, 2002, 3003, 5005
+        and 2026 (``scripts/bench_real_maps.py low-overlap``) accepted right
+        placements reached 10; the two accepted 2.5 and 3.6 cells off, 13.6
+        and 13.8.
     accept : float
         Confidence at or above which a result is accepted. Set on 4200
         low-overlap window pairs of four real maps (fourteen seeds of the
@@ -400,6 +413,7 @@ class ConfidenceParams:
     pin_below: float = 0.9
     pin_scale: float = 40.0
     turn_scale: float = 15.0
+    max_lever: float = 12.0
     accept: float = 0.6
 
     def __post_init__(self) -> None:
@@ -415,6 +429,7 @@ class ConfidenceParams:
                 "pin_directions",
                 "pin_scale",
                 "turn_scale",
+                "max_lever",
             ),
             fractions=("pin_below", "accept"),
         )

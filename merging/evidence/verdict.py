@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.evidence.mirror import MirrorCandidates, mirror_share
-from merging.evidence.pinning import pinning
+from merging.evidence.pinning import lever_arm, pinning
 from merging.evidence.refine import SmoothedMap, constraint_strength, turning_strength
 from merging.evidence.robust import (
     open_cells,
@@ -60,6 +60,13 @@ MIRROR_REASON = (
     "building"
 )
 """Why a placement is refused when its evidence is as good for map 2's mirror image."""
+
+LEVER_REASON = (
+    "too little overlap for the extent of map 2: a turn too small to see where the maps "
+    "meet would move map 2's far walls by more than the accuracy asked"
+)
+"""Why a close fit is refused when map 2's walls reach too far from the overlap
+(``ConfidenceParams.max_lever``)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,6 +190,15 @@ def judge(
             turn = matrix_to_pose(best)[2] - matrix_to_pose(competitor[1])[2]
             evidence[f"{prefix}runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
     accept = params.confidence.accept
+    overreach = False
+    if close >= accept:
+        # A close fit holds map 2's far walls only as well as the overlap pins its turn.
+        lever = lever_arm(first, second, best)
+        evidence["lever_arm"] = lever
+        if lever > params.confidence.max_lever:
+            overreach = True
+            close = 0.0
+            evidence["close_confidence"] = close
     vouched = close >= accept
     if close >= accept and twins.available:
         share = mirror_share(
@@ -220,6 +236,8 @@ def judge(
     accepted = value >= accept
     if accepted:
         reason = ""
+    elif overreach:
+        reason = LEVER_REASON
     elif vouched:
         # Either way vouched until held against the mirror image: that is why.
         reason = MIRROR_REASON

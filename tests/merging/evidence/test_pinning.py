@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from merging.evidence.pinning import pinning
+import merging
+from merging.evidence.pinning import lever_arm, pinning
 from merging.evidence.refine import SmoothedMap, constraint_strength, turning_strength
+from merging.evidence.verdict import LEVER_REASON
 from merging.evidence.verify import prepare_map
+from merging.params import DEFAULT_PARAMS
 from merging.transforms import rigid_matrix
 from tests.merging.builders import synthetic_building
 
@@ -57,3 +62,34 @@ def test_turning_is_held_at_least_as_firmly_as_the_weakest_direction(seed: int) 
     weakest = constraint_strength(smoothed, second, truth)
     assert turn >= weakest - 1e-6
     assert turn > 0.0
+
+
+def test_lever_arm_is_one_when_every_wall_meets() -> None:
+    building = prepare_map(synthetic_building(3))
+    assert lever_arm(building, building, np.eye(3)) == pytest.approx(1.0)
+
+
+def test_lever_arm_grows_as_the_overlap_shrinks() -> None:
+    # Map 1 holds the left part of map 2's building; the less it holds, the farther map
+    # 2's walls reach from where the two meet.
+    grid = synthetic_building(3)
+    whole = prepare_map(grid)
+    levers = []
+    for width in (300, 180, 90):
+        part = grid.copy()
+        part[:, width:] = -1
+        levers.append(lever_arm(prepare_map(part), whole, np.eye(3)))
+    assert 1.0 < levers[0] < levers[1] < levers[2]
+
+
+def test_a_close_fit_reaching_too_far_is_refused_and_says_why() -> None:
+    grid = synthetic_building(3)
+    part = grid.copy()
+    part[:, 180:] = -1
+    assert merging.estimate_transform(part, grid).accepted
+    confidence = replace(DEFAULT_PARAMS.confidence, max_lever=1.01)
+    strict = replace(DEFAULT_PARAMS, confidence=confidence)
+    result = merging.estimate_transform(part, grid, params=strict)
+    assert not result.accepted
+    assert result.reason == LEVER_REASON
+    assert result.evidence["lever_arm"] > 1.01
