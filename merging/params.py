@@ -743,6 +743,17 @@ class TomographicParams:
     distinct_cells : float
         Two transforms moving map 2's cells further apart than this (cells
         RMS) are different answers; closer ones are one answer found twice.
+    near_rival_turns : tuple of float
+        RMS motions of map 2's walls (cells) by which a placement about to be
+        accepted is turned about the overlap, either way, before refining it
+        again to look for a near rival (``_turned_rival`` in
+        :mod:`merging.tomographic.search`): the accuracy a merge is asked
+        for (2 cells) and twice that.
+    near_rival_cells : float
+        A placement farther than this (cells RMS over map 2's walls) from
+        the one judged is a rival: the accuracy a merge is asked for. One
+        that explains nearly as much (the distinctiveness factor of
+        ``ConfidenceParams``) makes the placement ambiguous.
     """
 
     rotation: RotationParams = field(default_factory=RotationParams)
@@ -761,9 +772,11 @@ class TomographicParams:
     widest_per_block: float = 0.75
     keep_refined_margin: float = 0.02
     distinct_cells: float = 4.0
+    near_rival_turns: tuple[float, ...] = (2.0, 4.0)
+    near_rival_cells: float = 2.0
 
     def __post_init__(self) -> None:
-        _check_fields(self)
+        _check_fields(self, positive=("near_rival_turns", "near_rival_cells"))
         for name in ("stages", "mirror_stages"):
             _check_schedule(name, getattr(self, name))
 

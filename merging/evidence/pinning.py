@@ -96,11 +96,7 @@ def lever_arm(first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float6
         one point.
     """
     landed = apply_transform(matrix, second.points)
-    cells = np.rint(landed).astype(np.intp)
-    rows, cols = first.shape
-    inside = (cells[:, 0] >= 0) & (cells[:, 1] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] < rows)
-    meeting = np.zeros(len(cells), dtype=bool)
-    meeting[inside] = first.near_occupied[cells[inside, 1], cells[inside, 0]]
+    meeting = meeting_walls(first, landed)
     if meeting.sum() < 3:
         return float("inf")
     centre = landed[meeting].mean(axis=0)
@@ -108,3 +104,14 @@ def lever_arm(first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float6
     if own <= 0.0:
         return float("inf")
     return float(np.sqrt(np.mean(np.sum((landed - centre) ** 2, axis=1)))) / own
+
+
+def meeting_walls(first: PreparedMap, landed: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which of map 2's wall cells, placed at ``landed`` ((N, 2) float array of map 1's
+    ``(x, y)`` cells), lie within the verification's near radius of map 1's walls."""
+    cells = np.rint(landed).astype(np.intp)
+    rows, cols = first.shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 1] >= 0) & (cells[:, 0] < cols) & (cells[:, 1] < rows)
+    meeting = np.zeros(len(cells), dtype=bool)
+    meeting[inside] = first.near_occupied[cells[inside, 1], cells[inside, 0]]
+    return meeting

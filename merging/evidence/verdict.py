@@ -367,13 +367,9 @@ def refusal_reason(
             cause = "constraint" if "strength" in weak else "fit"
         competitor = "tolerant_"
     if cause == "distinct":
-        distance = evidence.get(f"{competitor}runner_up_distance_cells", 0.0)
-        turn = round(evidence.get(f"{competitor}runner_up_turn_deg", 0.0))
-        turned = f", turned {turn} degree{'' if turn == 1 else 's'} from it" if turn >= 1 else ""
-        return (
-            "ambiguous: another placement about as good lies "
-            f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
-            "symmetric part of the building"
+        return ambiguity_reason(
+            evidence.get(f"{competitor}runner_up_distance_cells", 0.0),
+            evidence.get(f"{competitor}runner_up_turn_deg", 0.0),
         )
     if cause == "fit" and few_walls:
         return (
@@ -393,6 +389,18 @@ def refusal_reason(
         "space": "the maps share walls but no open space: they may show two neighbouring "
         "rooms side by side",
     }[cause]
+
+
+def ambiguity_reason(distance: float, turn_deg: float) -> str:
+    """Why a placement is refused when another, ``distance`` cells RMS away and turned by
+    ``turn_deg`` degrees from it, explains about as much."""
+    turn = round(turn_deg)
+    turned = f", turned {turn} degree{'' if turn == 1 else 's'} from it" if turn >= 1 else ""
+    return (
+        "ambiguous: another placement about as good lies "
+        f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
+        "symmetric part of the building"
+    )
 
 
 def _rms_between(

@@ -65,7 +65,10 @@ Steps
    open space) or, for maps that bend against each other, robust evidence
    (a large overlap whose walls meet within a few cells and whose open space
    lies on open space), see :mod:`merging.evidence.verdict`; only confident results
-   are accepted, and a refusal says why.
+   are accepted, and a refusal says why. A close fit about to be accepted is
+   turned about the overlap and refined again: an optimum of its own more
+   than 2 cells away that explains about as much makes it ambiguous
+   (``_turned_rival``).
 6. Mirror check, for a placement step 5 would accept: steps 1-4 again for
    map 2's part of the overlap seen in a mirror, on map 1's cells around
    the overlap; if it explains the same overlap about as well,
@@ -86,12 +89,14 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.special import expit
 
 from merging.api import MIN_OCCUPIED_CELLS, register_method
 from merging.evaluation.metrics import as_matrix
 from merging.evidence.mirror import MirrorCandidates, mirrored_part, twin_ground
+from merging.evidence.pinning import meeting_walls
 from merging.evidence.refine import SmoothedMap, refine_transform
-from merging.evidence.verdict import MirrorSearch, judge
+from merging.evidence.verdict import MirrorSearch, ambiguity_reason, judge
 from merging.evidence.verify import PreparedMap, Verification, prepare_map, verify
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
@@ -109,7 +114,14 @@ from merging.tomographic.correlate import (
     coarsen,
     translation_peaks,
 )
-from merging.transforms import apply_transform, cells_to_metres, translation_matrix
+from merging.transforms import (
+    apply_transform,
+    cells_to_metres,
+    matrix_to_pose,
+    rigid_matrix,
+    translation_matrix,
+    wrap_angle,
+)
 
 Candidate = tuple[Verification, NDArray[np.float64]]
 """A hypothesis and its verification."""
@@ -178,13 +190,15 @@ class _Maps:
     def verify(self, matrix: NDArray[np.float64]) -> Verification:
         return verify(self.first, self.second, matrix, params=self.params.verify)
 
-    def refine(self, candidate: Candidate, stage: RefineStage) -> Candidate:
+    def refine(self, candidate: Candidate, stage: RefineStage, *, keep: bool = True) -> Candidate:
         """Refine a candidate; keep the start only when the refined one verifies clearly worse.
 
         Refinement may settle on a nearby optimum that explains the maps
         worse (two close parallel walls blurred into one by a wide field).
         Within ``keep_refined_margin`` the refined transform wins:
         verification tolerates a cell of misfit, so it cannot rank finer.
+        ``keep=False`` returns the refined one always: the optimum the start
+        leads to.
         """
         before, matrix = candidate
         better = refine_transform(
@@ -198,7 +212,7 @@ class _Maps:
             params=self.params.gauss_newton,
         )
         after = self.verify(better)
-        if rank(after) >= rank(before) - self.params.keep_refined_margin:
+        if not keep or rank(after) >= rank(before) - self.params.keep_refined_margin:
             return after, better
         return before, matrix
 
@@ -549,20 +563,92 @@ def _judged(
         far_runner_up=far_runner_up,
     )
     evidence = verdict.evidence
+    confidence, accepted, reason = verdict.confidence, verdict.accepted, verdict.reason
     if compromise and verdict.accepted and verdict.bent:
         best, moved = _compromise(maps, best)
         evidence = {**evidence, "compromise_moved_cells": moved}
+    elif compromise and verdict.accepted:
+        rival = _turned_rival(maps, best)
+        if rival is not None:
+            factor, measures = _rival_factor(maps, best, rival)
+            evidence = {**evidence, **measures}
+            confidence *= factor
+            accepted = confidence >= maps.params.confidence.accept
+            if not accepted:
+                reason = ambiguity_reason(
+                    measures["near_rival_distance_cells"], measures["near_rival_turn_deg"]
+                )
     timings["judge"] = time.perf_counter() - clock - timings.get("mirror", 0.0)
     return MergeResult(
         matrix=best,
-        confidence=verdict.confidence,
-        accepted=verdict.accepted,
+        confidence=confidence,
+        accepted=accepted,
         method="tomographic",
         hypotheses=hypotheses,
         timings=timings,
-        reason=verdict.reason,
+        reason=reason,
         evidence=evidence,
     )
+
+
+def _turned_rival(maps: _Maps, best: NDArray[np.float64]) -> Candidate | None:
+    """The placement explaining the most that refining ``best`` turned about the overlap
+    finds farther than ``TomographicParams.near_rival_cells`` from it; None if none.
+
+    A small overlap holds map 2's far walls by a lever: a turn moving them
+    two cells moves the overlap's walls by a fraction of one, and two
+    optima of the narrow fields, one of them the truth, may lie that far
+    apart and explain about as much. ``best`` is turned about the centroid
+    of map 2's walls that meet map 1's, by the angles moving all of map 2's
+    walls ``near_rival_turns`` cells RMS either way, and each start refined
+    on the narrow fields to the optimum it leads to: an optimum of its own
+    farther than ``near_rival_cells``, not the start kept, is a rival.
+    """
+    params = maps.params
+    points = maps.second.points
+    landed = apply_transform(best, points)
+    meeting = meeting_walls(maps.first, landed)
+    if not meeting.any():
+        return None
+    pivot = landed[meeting].mean(axis=0)
+    radius = float(np.sqrt(np.mean(np.sum((landed - pivot) ** 2, axis=1))))
+    if radius <= 0.0:
+        return None
+    rival: Candidate | None = None
+    for moved in params.near_rival_turns:
+        for sign in (-1.0, 1.0):
+            turn = (
+                translation_matrix(pivot)
+                @ rigid_matrix(0.0, 0.0, sign * moved / radius)
+                @ translation_matrix(-pivot)
+            )
+            found = (maps.verify(turn @ best), turn @ best)
+            for stage in params.stages[1:]:
+                found = maps.refine(found, stage, keep=False)
+            if _rms_between(found[1], best, points) <= params.near_rival_cells:
+                continue
+            if rival is None or found[0].net > rival[0].net:
+                rival = found
+    return rival
+
+
+def _rival_factor(
+    maps: _Maps, best: NDArray[np.float64], rival: Candidate
+) -> tuple[float, dict[str, float]]:
+    """The distinctiveness factor of ``best`` against a near ``rival`` (the close fit's,
+    :func:`merging.evidence.verify.confidence_factors`) and the measures behind it."""
+    confidence = maps.params.confidence
+    check = maps.verify(best)
+    share = max(rival[0].net, 0.0) / check.net if check.net > 0 else 1.0
+    factor = float(expit(((1.0 - share) - confidence.distinct_margin) / confidence.distinct_width))
+    turn = matrix_to_pose(best)[2] - matrix_to_pose(rival[1])[2]
+    measures = {
+        "near_rival_share": share,
+        "near_rival_distance_cells": _rms_between(rival[1], best, maps.second.points),
+        "near_rival_turn_deg": float(np.degrees(abs(wrap_angle(turn)))),
+        "close_near_distinct": factor,
+    }
+    return factor, measures
 
 
 def _compromise(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
