@@ -373,7 +373,10 @@ class ConfidenceParams:
         windows), and the curvature of a flat optimum does not show them.
         Window pairs sharing 3-15 % whose placements were pinned by a turn
         of 11 were accepted 2-4 cells off at 10 (seeds 1001-3003 of
-        ``scripts/bench_real_maps.py low-overlap``).
+        ``scripts/bench_real_maps.py low-overlap``); with ``max_lever`` and
+        the near rival (``TomographicParams.near_rival_turns``) refusing
+        those, 10 still accepts one 2.75 cells off on seed 2121, which 15
+        refuses.
     max_lever : float
         Largest lever arm (:func:`merging.evidence.pinning.lever_arm`: how
         many times farther map 2's walls lie from the overlap than the
