@@ -161,6 +161,31 @@ class TranslationParams:
         dropped: they are the same answer.
     peaks : int
         Translations kept per rotation hypothesis.
+    significant_peaks : int
+        Further translations kept per rotation hypothesis, the strongest by
+        significance rather than by collected mass (:mod:`merging.tomographic.correlate`):
+        a shift laying much of map 2 loosely on map 1 collects more mass
+        than one laying a small part exactly, so the true shift of maps that
+        share 3-15 % of their area is rarely among the strongest by mass. On
+        300 low-overlap window pairs of four maps
+        (``scripts/bench_real_maps.py low-overlap``, seed 41) whose true
+        rotation the search had found but whose true shift it had not, the
+        true shift was among the three most significant for 65 % of them
+        (4 % by mass). They join the screening; the refinement's first
+        admissions by correlation still take the strongest by mass (their
+        score is the mass they collect), so maps that overlap much are
+        searched as before. Two, not three: on those pairs the third added
+        no accepted right answer and a twentieth of the time.
+    overlap_power : float
+        Significance is the collected mass divided by the number of map 2's
+        wall blocks landing on map 1's observed blocks to this power. One
+        half is the mean agreement over the landing walls times the square
+        root of their number; 0.4 and 0.6 did no better on those pairs, and 1
+        (the mean agreement alone) lets one lucky block rank first.
+    min_overlap_blocks : float
+        Fewer landing wall blocks than this count as this many: a shift
+        laying one or two blocks on map 1 collects too little to mean
+        anything.
     """
 
     coarse_cells: int = 160
@@ -168,9 +193,12 @@ class TranslationParams:
     free_penalty: float = 0.5
     peak_suppression: int = 2
     peaks: int = 3
+    significant_peaks: int = 2
+    overlap_power: float = 0.5
+    min_overlap_blocks: float = 4.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("coarse_cells", "peaks"))
+        _check_fields(self, positive=("coarse_cells", "peaks", "min_overlap_blocks"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -207,6 +235,12 @@ class VerifyParams:
         more than the wrong one. Set on the even-numbered E5 session pairs
         and window pairs of four maps (any value from 1 to 2 ranks every
         window pair as 0.05 alone did), checked on the odd-numbered ones.
+    ranking_tolerance : int
+        When above 0, the ranking score (:attr:`merging.evidence.verify.Verification.score`)
+        adds the quality with walls counted as met within this many cells
+        (chessboard; conflicts only beyond it plus ``conflict_clearance``) to
+        the quality within ``near_radius``: ray consistency that survives
+        the bending between sessions. 0 ranks by the close quality alone.
     screen_stride : int
         Hypotheses are first screened with every ``screen_stride``-th
         verification point (about 1000 per map), enough to rank them; the
@@ -220,6 +254,7 @@ class VerifyParams:
     conflict_weight: float = 3.0
     overlap_preference: float = 0.05
     space_preference: float = 1.5
+    ranking_tolerance: int = 0
     screen_stride: int = 4
 
     def __post_init__(self) -> None:
@@ -302,6 +337,59 @@ class ConfidenceParams:
         together) at which the shared-space factor reaches 1 - 1/e: about a
         square metre seen by both robots at 0.05 m. Maps laid side by side
         along one wall share none.
+    pin_cells : tuple of float
+        Distances (cells RMS over map 2's walls) by which
+        :func:`merging.evidence.pinning.pinning` moves a placement whose constraint
+        strength is weak, to see what moving it costs: the accuracy a merge
+        is asked for (2 cells, ``scripts/bench_merge.py``) and twice that.
+    pin_directions : int
+        Directions of translation tried at each of those distances, evenly
+        spread: 8, every 45 degrees, puts the weakest direction of a straight
+        corridor within 22.5 degrees of one of them. Each move is the
+        distance in the chessboard metric of the verification's cell
+        tolerance (a diagonal move of 2 cells is (2, 2), not (1.4, 1.4),
+        which lands every cell next to where it was).
+    pin_below : float
+        The curvature's constraint factor below which the verdict also
+        measures what moving the placement costs: above it the curvature
+        alone lets the other factors decide, and the moves are not worth
+        their milliseconds.
+    pin_scale : float
+        Net evidence lost by the cheapest of those moves (cells, both
+        directions together: agreeing walls lost plus ``conflict_weight``
+        times conflicts gained) at which the constraint factor reaches
+        1 - 1/e when the curvature alone would give less: about a metre of
+        cross wall at 0.05 m seen in both maps, as a door or corner holding
+        a corridor does. A corridor with nothing across it loses nothing,
+        and a placement off the truth gains by moving towards it.
+    turn_scale : float
+        Strength of the turn alone (:func:`merging.evidence.refine.turning_strength`,
+        matching cells per cell² of map 2's RMS motion) at which the
+        constraint factor reaches 1 - 1/e when the curvature alone would
+        give less. Larger than ``strength_scale``: a small overlap turns
+        about itself, so the half-cell errors of rasterising a turned map
+        there reach map 2's far walls multiplied by its lever arm (map 2's
+        radius over the overlap's, 3-16 for right placements of low-overlap
+        windows), and the curvature of a flat optimum does not show them.
+        Window pairs sharing 3-15 % whose placements were pinned by a turn
+        of 11 were accepted 2-4 cells off at 10 (seeds 1001-3003 of
+        ``scripts/bench_real_maps.py low-overlap``); with ``max_lever`` and
+        the near rival (``TomographicParams.near_rival_turns``) refusing
+        those, 10 still accepts one 2.75 cells off on seed 2121, which 15
+        refuses.
+    max_lever : float
+        Largest lever arm (:func:`merging.evidence.pinning.lever_arm`: how
+        many times farther map 2's walls lie from the overlap than the
+        overlap's own) at which a close fit may vouch for a placement. The
+        narrowest refinement field places the overlap's walls to about a
+        tenth of a cell (median; :data:`DEFAULT_STAGES`), a sixth in the
+        tail; a turn of that size at the overlap's rim moves walls this many
+        times farther out by this many times as much, so beyond
+        2 / (1/6) = 12 the accuracy a merge is asked for (2 cells) is not
+        held. On the low-overlap window pairs of seeds 41, 2002, 3003, 5005
+        and 2026 (``scripts/bench_real_maps.py low-overlap``) accepted right
+        placements reached 10; the two accepted 2.5 and 3.6 cells off, 13.6
+        and 13.8.
     accept : float
         Confidence at or above which a result is accepted. Set on 4200
         low-overlap window pairs of four real maps (fourteen seeds of the
@@ -323,6 +411,12 @@ class ConfidenceParams:
     mirror_margin: float = 0.25
     strength_scale: float = 10.0
     shared_space_scale: float = 1000.0
+    pin_cells: tuple[float, ...] = (2.0, 4.0)
+    pin_directions: int = 8
+    pin_below: float = 0.9
+    pin_scale: float = 40.0
+    turn_scale: float = 15.0
+    max_lever: float = 12.0
     accept: float = 0.6
 
     def __post_init__(self) -> None:
@@ -334,8 +428,13 @@ class ConfidenceParams:
                 "distinct_width",
                 "strength_scale",
                 "shared_space_scale",
+                "pin_cells",
+                "pin_directions",
+                "pin_scale",
+                "turn_scale",
+                "max_lever",
             ),
-            fractions=("accept",),
+            fractions=("pin_below", "accept"),
         )
 
 
@@ -575,6 +674,17 @@ first two stages of :data:`DEFAULT_STAGES`. Its placements are counted within a
 cell of a wall, so the last tenth of a cell the final stage resolves does not
 change them, and leaving it out saves about a quarter of that search's time."""
 
+COMPROMISE = RefineStage(
+    admit=1, refine=1, sigmas=(8.0, 4.0), iterations=15, points=3000, local=False
+)
+"""Refining an accepted placement of maps that bend against each other to the best rigid
+compromise over the whole overlap (``_compromise`` in :mod:`merging.tomographic.search`): fields as
+wide as the bending between sessions (up to half a metre, 10 cells at 0.05 m) and half
+that, over all of map 1, with twice the points of the other stages, as the parts that
+bend away are what the compromise weighs. On a third of the E5 session pairs (every
+third, sorted by name) the largest error of an accepted placement fell from 0.75 to 0.56
+of its tolerance, the median error stayed 3 cells."""
+
 FROM_START = RefineStage(
     admit=1, refine=1, sigmas=(2.0, 1.0, 0.6), iterations=10, points=1500, local=True
 )
@@ -597,12 +707,32 @@ class TomographicParams:
     mirror_stages : tuple of RefineStage
         The refinement schedule of the search for the mirror image of the
         evidence (:mod:`merging.evidence.mirror`).
+    compromise : RefineStage
+        How an accepted placement of maps that bend against each other is
+        refined to the best rigid compromise over the whole overlap
+        (:data:`COMPROMISE`).
     correlation_refined : int
         Of the candidates admitted to the first stage, how many are taken by
         correlation strength rather than by verification: before refinement
         a true but slightly misaligned transform can fit worse than one that
         lays a single outer corner on a corner, which the correlation
         (weighing how much overlaps) does not favour.
+    significance_refined : int
+        Of the candidates admitted to the first stage, how many more are
+        taken as the most significant shifts
+        (``TranslationParams.significant_peaks``): a small overlap's true
+        shift, slightly misaligned, verifies worse than loose large overlaps
+        until it is refined.
+    close_alternative : float
+        Quality (:attr:`merging.evidence.verify.Verification.quality`) at or above
+        which a placement of the pool is judged too when the best by score
+        is refused: walls meeting within a cell with almost no conflict.
+        The ranking score prefers much shared open space, which maps of
+        separate sessions need, and so may rank a loose large overlap above
+        the exact small one of maps that share 3-15 % of their area; the
+        verdict, not the score, then decides. Right placements of such
+        window pairs score 0.95-1 (``scripts/bench_real_maps.py
+        low-overlap``, seed 41), wrong ones the score preferred -1.2-0.9.
     widest_per_block : float
         Widest field of the first refinement stage, in blocks of the coarse
         correlation grid: its hypotheses are off by up to half a block plus
@@ -616,6 +746,17 @@ class TomographicParams:
     distinct_cells : float
         Two transforms moving map 2's cells further apart than this (cells
         RMS) are different answers; closer ones are one answer found twice.
+    near_rival_turns : tuple of float
+        RMS motions of map 2's walls (cells) by which a placement about to be
+        accepted is turned about the overlap, either way, before refining it
+        again to look for a near rival (``_turned_rival`` in
+        :mod:`merging.tomographic.search`): the accuracy a merge is asked
+        for (2 cells) and twice that.
+    near_rival_cells : float
+        A placement farther than this (cells RMS over map 2's walls) from
+        the one judged is a rival: the accuracy a merge is asked for. One
+        that explains nearly as much (the distinctiveness factor of
+        ``ConfidenceParams``) makes the placement ambiguous.
     """
 
     rotation: RotationParams = field(default_factory=RotationParams)
@@ -627,13 +768,18 @@ class TomographicParams:
     stages: tuple[RefineStage, ...] = DEFAULT_STAGES
     from_start: RefineStage = FROM_START
     mirror_stages: tuple[RefineStage, ...] = MIRROR_STAGES
+    compromise: RefineStage = COMPROMISE
     correlation_refined: int = 2
+    significance_refined: int = 2
+    close_alternative: float = 0.95
     widest_per_block: float = 0.75
     keep_refined_margin: float = 0.02
     distinct_cells: float = 4.0
+    near_rival_turns: tuple[float, ...] = (2.0, 4.0)
+    near_rival_cells: float = 2.0
 
     def __post_init__(self) -> None:
-        _check_fields(self)
+        _check_fields(self, positive=("near_rival_turns", "near_rival_cells"))
         for name in ("stages", "mirror_stages"):
             _check_schedule(name, getattr(self, name))
 

@@ -15,6 +15,8 @@ module                                   what it holds
 :mod:`~merging.evidence.robust`          evidence for maps that bend: walls met within a
                                          tolerance, open space that agrees
 :mod:`~merging.evidence.mirror`          evidence that looks the same in a mirror image
+:mod:`~merging.evidence.pinning`         what sliding a placement a few cells costs:
+                                         whether it is pinned down
 :mod:`~merging.evidence.verdict`         the verdict on the best placement, and in words
                                          why it is refused
 =======================================  ==============================================

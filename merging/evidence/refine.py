@@ -301,12 +301,61 @@ def constraint_strength(
     near zero when the overlap is one straight wall that lets map 2 slide or
     turn. ``local`` blurs only where map 2 lands (see :func:`refine_transform`).
     """
+    curvature, stride = curvature_matrix(smoothed, second, matrix, local=local, params=params)
+    if curvature is None:
+        return 0.0
+    smallest = float(np.linalg.eigvalsh(0.5 * (curvature + curvature.T))[0])
+    return max(smallest, 0.0) * stride
+
+
+def turning_strength(
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    local: bool = False,
+    params: GaussNewtonParams = DEFAULT_GAUSS_NEWTON,
+) -> float:
+    """How firmly the walls hold the turn alone, in matching cells per cell² of motion.
+
+    As :func:`constraint_strength`, but for turning only, the translation
+    following to its best (the Schur complement of the translation block of
+    the curvature), per cell² of the RMS motion of map 2's cells that the
+    turn and its following translation make: near zero when map 2 may turn
+    about the overlap, however firmly the overlap holds its place.
+    """
+    curvature, stride = curvature_matrix(smoothed, second, matrix, local=local, params=params)
+    if curvature is None:
+        return 0.0
+    curvature = 0.5 * (curvature + curvature.T)
+    shift, coupling = curvature[:2, :2], curvature[:2, 2]
+    try:
+        follow = np.linalg.solve(shift, coupling)
+    except np.linalg.LinAlgError:
+        return 0.0
+    # The turn with its following translation, (-follow, 1) in whitened coordinates,
+    # moves map 2's cells by its length RMS (the metric is about their centroid).
+    loss = float(curvature[2, 2] - coupling @ follow)
+    return max(loss, 0.0) / (1.0 + float(follow @ follow)) * stride
+
+
+def curvature_matrix(
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    local: bool = False,
+    params: GaussNewtonParams = DEFAULT_GAUSS_NEWTON,
+) -> tuple[NDArray[np.float64] | None, int]:
+    """The curvature of :func:`constraint_strength` (whitened, coordinates ``(x, y, turn)``,
+    per point used) and the stride of map 2's points it used; None where map 2 lands off
+    a local field."""
     stride = max(1, int(np.ceil(len(second.points) / params.curvature_points)))
     points = second.points[::stride]
     sigma = params.curvature_sigma
     box = _landing_box(matrix, points, smoothed, sigma, params.local_margin) if local else None
     if local and box is None:
-        return 0.0
+        return None, stride
     field = smoothed.field(sigma, box=box)
     landed = apply_transform(matrix, points)
     pivot = landed.mean(axis=0)
@@ -345,6 +394,4 @@ def constraint_strength(
             pp, pm, mp, mm = next(sums), next(sums), next(sums), next(sums)
             hessian[i, j] = hessian[j, i] = (pp - pm - mp + mm) / (4 * steps[i] * steps[j])
     whiten = np.diag(1.0 / np.sqrt(np.diag(metric)))
-    curvature = -whiten @ hessian @ whiten
-    smallest = float(np.linalg.eigvalsh(0.5 * (curvature + curvature.T))[0])
-    return max(smallest, 0.0) * stride
+    return -whiten @ hessian @ whiten, stride

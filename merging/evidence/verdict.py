@@ -34,7 +34,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.evidence.mirror import MirrorCandidates, mirror_share
-from merging.evidence.refine import SmoothedMap, constraint_strength
+from merging.evidence.pinning import lever_arm, pinning
+from merging.evidence.refine import SmoothedMap, constraint_strength, turning_strength
 from merging.evidence.robust import (
     open_cells,
     open_consistency,
@@ -60,6 +61,13 @@ MIRROR_REASON = (
 )
 """Why a placement is refused when its evidence is as good for map 2's mirror image."""
 
+LEVER_REASON = (
+    "too little overlap for the extent of map 2: a turn too small to see where the maps "
+    "meet would move map 2's far walls by more than the accuracy asked"
+)
+"""Why a close fit is refused when map 2's walls reach too far from the overlap
+(``ConfidenceParams.max_lever``)."""
+
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
@@ -76,12 +84,17 @@ class Verdict:
     evidence : dict
         The measures and factors behind the verdict (see
         :attr:`merging.result.MergeResult.evidence`).
+    bent : bool
+        Whether the maps bend against each other where they overlap: the
+        robust evidence (a large overlap whose walls meet within a few
+        cells) vouches for the placement, and more than the close fit does.
     """
 
     confidence: float
     accepted: bool
     reason: str
     evidence: dict[str, float]
+    bent: bool = False
 
 
 def judge(
@@ -129,6 +142,28 @@ def judge(
         factors = confidence_factors(
             check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
         )
+    pinned: tuple[float, float] | None = None
+    # Sliding and turning bear on the constraint factor alone: measure them only when
+    # the other factors leave the placement a chance.
+    unconstrained = float(np.prod(factors)) / max(factors[3], 1e-12)
+    if (
+        np.prod(factors) < params.confidence.accept
+        and factors[3] < params.confidence.pin_below
+        and unconstrained >= params.confidence.accept
+    ):
+        # A weak curvature: see what sliding the placement a little would cost,
+        # and how firmly its turn alone is held.
+        slide = pinning(first, second, best, params=params.confidence, verify_params=params.verify)
+        turn = turning_strength(smoothed, second, best, local=True, params=params.gauss_newton)
+        pinned = (slide, turn)
+        factors = confidence_factors(
+            check,
+            other,
+            strength=strength,
+            params=params.confidence,
+            fit_quality=fit_quality,
+            pinned=pinned,
+        )
     close = float(np.prod(factors))
     twins = _Twins(mirror)
     evidence: dict[str, float] = {
@@ -141,6 +176,8 @@ def judge(
         "strength": strength,
         "close_confidence": close,
     }
+    if pinned is not None:
+        evidence["slide_cost_cells"], evidence["turning_strength"] = pinned
     evidence.update(
         {f"close_{name}": value for name, value in zip(CLOSE_FACTORS, factors, strict=True)}
     )
@@ -153,6 +190,15 @@ def judge(
             turn = matrix_to_pose(best)[2] - matrix_to_pose(competitor[1])[2]
             evidence[f"{prefix}runner_up_turn_deg"] = float(np.degrees(abs(wrap_angle(turn))))
     accept = params.confidence.accept
+    overreach = False
+    if close >= accept:
+        # A close fit holds map 2's far walls only as well as the overlap pins its turn.
+        lever = lever_arm(first, second, best)
+        evidence["lever_arm"] = lever
+        if lever > params.confidence.max_lever:
+            overreach = True
+            close = 0.0
+            evidence["close_confidence"] = close
     vouched = close >= accept
     if close >= accept and twins.available:
         share = mirror_share(
@@ -190,12 +236,15 @@ def judge(
     accepted = value >= accept
     if accepted:
         reason = ""
+    elif overreach:
+        reason = LEVER_REASON
     elif vouched:
         # Either way vouched until held against the mirror image: that is why.
         reason = MIRROR_REASON
     else:
         reason = refusal_reason(factors, robust_scores, evidence)
-    return Verdict(value, accepted, reason, evidence)
+    bent = robust >= accept and robust > close
+    return Verdict(value, accepted, reason, evidence, bent)
 
 
 class _Twins:
@@ -318,13 +367,9 @@ def refusal_reason(
             cause = "constraint" if "strength" in weak else "fit"
         competitor = "tolerant_"
     if cause == "distinct":
-        distance = evidence.get(f"{competitor}runner_up_distance_cells", 0.0)
-        turn = round(evidence.get(f"{competitor}runner_up_turn_deg", 0.0))
-        turned = f", turned {turn} degree{'' if turn == 1 else 's'} from it" if turn >= 1 else ""
-        return (
-            "ambiguous: another placement about as good lies "
-            f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
-            "symmetric part of the building"
+        return ambiguity_reason(
+            evidence.get(f"{competitor}runner_up_distance_cells", 0.0),
+            evidence.get(f"{competitor}runner_up_turn_deg", 0.0),
         )
     if cause == "fit" and few_walls:
         return (
@@ -344,6 +389,18 @@ def refusal_reason(
         "space": "the maps share walls but no open space: they may show two neighbouring "
         "rooms side by side",
     }[cause]
+
+
+def ambiguity_reason(distance: float, turn_deg: float) -> str:
+    """Why a placement is refused when another, ``distance`` cells RMS away and turned by
+    ``turn_deg`` degrees from it, explains about as much."""
+    turn = round(turn_deg)
+    turned = f", turned {turn} degree{'' if turn == 1 else 's'} from it" if turn >= 1 else ""
+    return (
+        "ambiguous: another placement about as good lies "
+        f"{distance:.0f} cells away{turned}; the maps may show a repeated or "
+        "symmetric part of the building"
+    )
 
 
 def _rms_between(

@@ -395,11 +395,17 @@ def confidence_factors(
     strength: float | None = None,
     params: ConfidenceParams = DEFAULT_CONFIDENCE,
     fit_quality: float | None = None,
+    pinned: tuple[float, float] | None = None,
 ) -> tuple[float, float, float, float, float]:
     """The five factors of :func:`confidence`: fit, support, distinctiveness, constraint, space.
 
     ``fit_quality`` replaces ``best.quality`` in the fit factor when given
     (the default method passes the quality at ``ConfidenceParams.fit_tolerance``).
+    ``pinned``, when given, is ``(slide, turn)``: the net evidence lost by
+    sliding the placement a little (:func:`merging.evidence.pinning.pinning`) and the
+    strength holding its turn (:func:`merging.evidence.refine.turning_strength`); the
+    constraint factor is then the larger of the curvature's and the smaller
+    of ``1 - exp(-slide / pin_scale)`` and ``1 - exp(-turn / turn_scale)``.
     """
     quality = best.quality if fit_quality is None else fit_quality
     fit = expit((quality - params.fit_centre) / params.fit_width)
@@ -411,5 +417,12 @@ def confidence_factors(
     constrained = (
         1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / params.strength_scale)
     )
+    if pinned is not None:
+        slide, turn = pinned
+        held = min(
+            1.0 - np.exp(-max(slide, 0.0) / params.pin_scale),
+            1.0 - np.exp(-max(turn, 0.0) / params.turn_scale),
+        )
+        constrained = max(constrained, held)
     shared = 1.0 - np.exp(-best.shared_space / params.shared_space_scale)
     return (float(fit), float(support), float(distinct), float(constrained), float(shared))

@@ -13,12 +13,25 @@ To be cheap the correlation runs on a coarse grid (blocks of ``factor`` x
 ``factor`` cells). Map 1 enters as a signed *target*: its walls, blurred to
 tolerate the residual rotation error, minus a penalty on its clear free
 space, so a shift that lays map 2's walls across map 1's open rooms loses.
+
+The target mass a shift collects grows with how many of map 2's walls land
+on map 1's observed part, so a shift laying a large part of map 2 loosely on
+map 1 collects more than one laying a small part exactly, and maps that
+share 3-15 % of their area lose their true shift among the loose ones. So
+besides the shifts collecting the most mass, the search keeps those most
+*significant*: each shift's mass divided by a power of the number of map
+2's wall blocks landing on map 1's observed blocks
+(``TranslationParams.overlap_power``; one more FFT correlation, with map 1's
+observed blocks). At one half that is the mean agreement of the landing
+walls times the square root of their number, which neither the loose large
+overlap nor one lucky block wins.
 """
 
 from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,23 +61,37 @@ class CoarseMap:
         1 where a block holds an occupied cell.
     points : (M, 2) float ndarray
         ``(x, y)`` block indices of the blocks holding walls.
+    known : (rows, cols) float32 ndarray
+        1 where a block is observed (its centre cell is known, or it holds
+        a wall).
     """
 
     factor: int
     target: NDArray[np.float32]
     walls: NDArray[np.float32]
     points: NDArray[np.float64]
-    _spectra: dict[tuple[int, int], NDArray[np.complex64]] = field(
+    known: NDArray[np.float32]
+    _spectra: dict[tuple[str, tuple[int, int]], NDArray[np.complex64]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
 
     def target_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
         """``rfft2`` of ``target`` zero-padded to ``size``, kept for the next rotation."""
-        if size not in self._spectra:
-            spectrum = padded_rfft2(self.target, size)
+        return self._spectrum("target", self.target, size)
+
+    def known_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
+        """``rfft2`` of ``known`` zero-padded to ``size``, kept for the next rotation."""
+        return self._spectrum("known", self.known, size)
+
+    def _spectrum(
+        self, name: str, image: NDArray[np.float32], size: tuple[int, int]
+    ) -> NDArray[np.complex64]:
+        key = (name, size)
+        if key not in self._spectra:
+            spectrum = padded_rfft2(image, size)
             spectrum.setflags(write=False)  # shared by every rotation
-            self._spectra[size] = spectrum
-        return self._spectra[size]
+            self._spectra[key] = spectrum
+        return self._spectra[key]
 
 
 def padded_rfft2(image: NDArray[np.float32], size: tuple[int, int]) -> NDArray[np.complex64]:
@@ -108,14 +135,18 @@ def coarsen(
     centre = factor // 2
     sampled = prepared.clear_free[centre::factor, centre::factor]
     clear[: sampled.shape[0], : sampled.shape[1]] = sampled
+    known = walls.copy()
+    observed = prepared.cells[centre::factor, centre::factor] >= 0
+    known[: observed.shape[0], : observed.shape[1]] += observed
+    np.minimum(known, 1.0, out=known)
     wall_rows, wall_cols = np.nonzero(walls)
     blurred = blur_walls(wall_rows, wall_cols, shape, params.wall_blur)
     blurred /= max(float(blurred.max()), 1e-9)
     target = (blurred - params.free_penalty * clear).astype(np.float32)
     points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
-    for image in (target, walls, points):
+    for image in (target, walls, points, known):
         image.setflags(write=False)  # map 1's are shared with a second search
-    return CoarseMap(factor, target, walls, points)
+    return CoarseMap(factor, target, walls, points, known)
 
 
 def translation_peaks(
@@ -125,7 +156,10 @@ def translation_peaks(
     *,
     count: int,
     suppression: int = DEFAULT_TRANSLATION.peak_suppression,
-) -> tuple[list[tuple[NDArray[np.float64], float]], list[tuple[NDArray[np.float64], float]]]:
+    significant: int = 0,
+    overlap_power: float = DEFAULT_TRANSLATION.overlap_power,
+    min_overlap_blocks: float = DEFAULT_TRANSLATION.min_overlap_blocks,
+) -> tuple[list[Peak], list[Peak]]:
     """Best translations of ``second``, rotated by ``theta`` and by ``theta + π``, onto ``first``.
 
     The rotation's angular spectra cannot tell a turn from its half-turn
@@ -142,16 +176,22 @@ def translation_peaks(
     theta : float
         Rotation (radians, counter-clockwise) applied to map 2's cells.
     count : int
-        Peaks to return per rotation.
+        Peaks of the collected mass to return per rotation.
     suppression : int
         Coarse cells around a peak within which weaker peaks are dropped.
+    significant : int
+        Further peaks per rotation, of the collected mass divided by the
+        number of map 2's wall blocks landing on map 1's observed blocks to
+        the power ``overlap_power`` (at least ``min_overlap_blocks``), away
+        from the first ``count`` (see the module docstring).
+    overlap_power, min_overlap_blocks : float
+        See ``significant``.
 
     Returns
     -------
-    (list of (matrix, score), list of (matrix, score))
-        For ``theta`` and for ``theta + π``: ``matrix`` takes map 2's
-        full-resolution cells to map 1's; ``score`` is the target mass
-        collected per wall block of map 2, best first.
+    (list of Peak, list of Peak)
+        For ``theta`` and for ``theta + π``: the ``count`` best by collected
+        mass first, then the ``significant`` ones.
     """
     rotated = second.points @ rigid_matrix(0.0, 0.0, theta)[:2, :2].T
     low = np.floor(rotated.min(axis=0))
@@ -171,59 +211,126 @@ def translation_peaks(
     target = first.target_spectrum(size)
     forward = padded_rfft2(moving, size)
     mass = float(moving.sum())
-    correlation = fft.irfft2(target * np.conj(forward), s=size)
+    backward = np.conj(forward)
+    correlation = fft.irfft2(target * backward, s=size)
+    convolution = fft.irfft2(target * forward, s=size)
+    surfaces = [correlation, convolution]
+    if significant > 0:
+        known = first.known_spectrum(size)
+        # Scaled by map 2's whole mass to the same power, so that a shift laying all
+        # of map 2 on map 1's observed part keeps its collected mass.
+        scale = mass**overlap_power
+        for surface, spectrum in ((correlation, backward), (convolution, forward)):
+            # In place: scale / max(landing, min_overlap_blocks) ** power * surface.
+            land = fft.irfft2(known * spectrum, s=size)
+            np.maximum(land, min_overlap_blocks, out=land)
+            np.power(land, overlap_power, out=land)
+            np.divide(scale, land, out=land)
+            land *= surface
+            surfaces.append(land)
     # Turned a further half turn, a point in cell c of this image lies at -rotated,
     # in cell -rotated - low_twin = extent - c of the twin's image: correlating with
     # that mirrored image at shift s is convolving with this one at s + extent.
-    convolution = fft.irfft2(target * forward, s=size)
-    mirrored = np.roll(convolution, (-int(extent[1]), -int(extent[0])), axis=(0, 1))
-    low_twin = -(low + extent)
-    return (
-        _peaks(correlation, (rows_a, cols_a), shape_b, mass, low, theta, first.factor,
-               count, suppression),
-        _peaks(mirrored, (rows_a, cols_a), shape_b, mass, low_twin, theta + np.pi,
-               first.factor, count, suppression),
-    )  # fmt: skip
+    roll = (-int(extent[1]), -int(extent[0]))
+    lows = (low, -(low + extent))
+    turns = []
+    for k, turn in enumerate((theta, theta + np.pi)):
+        mass_surface = surfaces[k] if k == 0 else np.roll(surfaces[k], roll, axis=(0, 1))
+        frame = _Frame((rows_a, cols_a), shape_b, mass, lows[k], turn, first.factor, suppression)
+        ranked = None
+        if significant > 0:
+            ranked = surfaces[k + 2] if k == 0 else np.roll(surfaces[k + 2], roll, axis=(0, 1))
+        found = _peaks(mass_surface, frame, count, significance=ranked)
+        if ranked is not None:
+            # The mass surface is suppressed only around its own peaks, which the
+            # significant ones keep away from: it still holds their masses.
+            found += _peaks(ranked, frame, significant, taken=found, scores=mass_surface)
+        turns.append([peak for peak, _ in found])
+    return turns[0], turns[1]
+
+
+class Peak(NamedTuple):
+    """A translation hypothesis: where a correlation surface peaks.
+
+    Attributes
+    ----------
+    matrix : (3, 3) float ndarray
+        Takes map 2's full-resolution cells to map 1's.
+    mass : float
+        Target mass collected per wall block of map 2.
+    significance : float
+        That mass divided by the number of map 2's wall blocks landing on
+        map 1's observed blocks to ``overlap_power``, times map 2's wall
+        blocks to it (:func:`translation_peaks`; the mass when not computed).
+    """
+
+    matrix: NDArray[np.float64]
+    mass: float
+    significance: float
+
+
+@dataclass(frozen=True, slots=True)
+class _Frame:
+    """Where a correlation surface's shifts lie: map 1's coarse shape, map 2's image's
+    shape, wall mass and corner ``low`` in the rotated coarse frame, the turn, the block
+    size and the peak suppression."""
+
+    shape_a: tuple[int, int]
+    shape_b: tuple[int, int]
+    mass: float
+    low: NDArray[np.float64]
+    theta: float
+    factor: int
+    suppression: int
 
 
 def _peaks(
     surface: NDArray[np.floating],
-    shape_a: tuple[int, int],
-    shape_b: tuple[int, int],
-    mass: float,
-    low: NDArray[np.float64],
-    theta: float,
-    factor: int,
+    frame: _Frame,
     count: int,
-    suppression: int,
-) -> list[tuple[NDArray[np.float64], float]]:
+    *,
+    taken: list[tuple[Peak, tuple[int, int]]] | None = None,
+    scores: NDArray[np.floating] | None = None,
+    significance: NDArray[np.floating] | None = None,
+) -> list[tuple[Peak, tuple[int, int]]]:
     """The ``count`` strongest shifts of a correlation ``surface`` (changed in place).
 
-    ``surface[i, j]`` is the target mass collected by map 2's image (of
-    ``shape_b``, holding ``mass`` wall blocks, its cell ``(0, 0)`` at ``low``
-    of the rotated coarse frame) shifted by ``(j, i)`` blocks onto map 1's
-    (of ``shape_a``); indices past map 1 stand for negative shifts. Scores
-    are per wall block.
+    ``surface[i, j]`` ranks map 2's image (of ``frame.shape_b``, holding
+    ``frame.mass`` wall blocks, its cell ``(0, 0)`` at ``frame.low`` of the
+    rotated coarse frame) shifted by ``(j, i)`` blocks onto map 1's (of
+    ``frame.shape_a``); indices past map 1 stand for negative shifts. Each
+    peak's mass is ``scores`` there (default ``surface``) and its
+    significance ``significance`` there (default ``surface``), per wall
+    block. Peaks within the suppression of those ``taken`` are not taken
+    again. Returns each peak with its ``(row, col)`` on the surface.
     """
     size = surface.shape
-    rows_a, cols_a = shape_a
+    rows_a, cols_a = frame.shape_a
     # Index i means shift i (i < rows_a) or i - size (a negative shift); the rows and
     # columns between are shifts that lay the maps apart.
-    surface[rows_a : size[0] - shape_b[0] + 1, :] = -np.inf
-    surface[:, cols_a : size[1] - shape_b[1] + 1] = -np.inf
-    scale, to_coarse = _block_frames(factor)
-    peaks: list[tuple[NDArray[np.float64], float]] = []
+    surface[rows_a : size[0] - frame.shape_b[0] + 1, :] = -np.inf
+    surface[:, cols_a : size[1] - frame.shape_b[1] + 1] = -np.inf
+    for _, (row, col) in taken or ():
+        _suppress(surface, row, col, frame.suppression)
+    scale, to_coarse = _block_frames(frame.factor)
+    masses = surface if scores is None else scores
+    significances = surface if significance is None else significance
+    peaks: list[tuple[Peak, tuple[int, int]]] = []
     for _ in range(count):
         flat = int(np.argmax(surface))
         row, col = divmod(flat, size[1])
-        value = float(surface[row, col])
-        if not np.isfinite(value):
+        if not np.isfinite(surface[row, col]):
             break
         shift_y = row if row < rows_a else row - size[0]
         shift_x = col if col < cols_a else col - size[1]
-        coarse = rigid_matrix(shift_x - low[0], shift_y - low[1], theta)
-        peaks.append((scale @ coarse @ to_coarse, value / mass))
-        _suppress(surface, row, col, suppression)
+        coarse = rigid_matrix(shift_x - frame.low[0], shift_y - frame.low[1], frame.theta)
+        peak = Peak(
+            scale @ coarse @ to_coarse,
+            float(masses[row, col]) / frame.mass,
+            float(significances[row, col]) / frame.mass,
+        )
+        peaks.append((peak, (row, col)))
+        _suppress(surface, row, col, frame.suppression)
     return peaks
 
 

@@ -65,7 +65,10 @@ Steps
    open space) or, for maps that bend against each other, robust evidence
    (a large overlap whose walls meet within a few cells and whose open space
    lies on open space), see :mod:`merging.evidence.verdict`; only confident results
-   are accepted, and a refusal says why.
+   are accepted, and a refusal says why. A close fit about to be accepted is
+   turned about the overlap and refined again: an optimum of its own more
+   than 2 cells away that explains about as much makes it ambiguous
+   (``_turned_rival``).
 6. Mirror check, for a placement step 5 would accept: steps 1-4 again for
    map 2's part of the overlap seen in a mirror, on map 1's cells around
    the overlap; if it explains the same overlap about as well,
@@ -86,12 +89,14 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.special import expit
 
 from merging.api import MIN_OCCUPIED_CELLS, register_method
 from merging.evaluation.metrics import as_matrix
 from merging.evidence.mirror import MirrorCandidates, mirrored_part, twin_ground
+from merging.evidence.pinning import meeting_walls
 from merging.evidence.refine import SmoothedMap, refine_transform
-from merging.evidence.verdict import MirrorSearch, judge
+from merging.evidence.verdict import MirrorSearch, ambiguity_reason, judge
 from merging.evidence.verify import PreparedMap, Verification, prepare_map, verify
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
@@ -102,8 +107,21 @@ from merging.tomographic.angular import (
     rotation_correlation,
     rotation_peaks,
 )
-from merging.tomographic.correlate import CoarseMap, coarse_factor, coarsen, translation_peaks
-from merging.transforms import apply_transform, cells_to_metres, translation_matrix
+from merging.tomographic.correlate import (
+    CoarseMap,
+    Peak,
+    coarse_factor,
+    coarsen,
+    translation_peaks,
+)
+from merging.transforms import (
+    apply_transform,
+    cells_to_metres,
+    matrix_to_pose,
+    rigid_matrix,
+    translation_matrix,
+    wrap_angle,
+)
 
 Candidate = tuple[Verification, NDArray[np.float64]]
 """A hypothesis and its verification."""
@@ -172,13 +190,15 @@ class _Maps:
     def verify(self, matrix: NDArray[np.float64]) -> Verification:
         return verify(self.first, self.second, matrix, params=self.params.verify)
 
-    def refine(self, candidate: Candidate, stage: RefineStage) -> Candidate:
+    def refine(self, candidate: Candidate, stage: RefineStage, *, keep: bool = True) -> Candidate:
         """Refine a candidate; keep the start only when the refined one verifies clearly worse.
 
         Refinement may settle on a nearby optimum that explains the maps
         worse (two close parallel walls blurred into one by a wide field).
         Within ``keep_refined_margin`` the refined transform wins:
         verification tolerates a cell of misfit, so it cannot rank finer.
+        ``keep=False`` returns the refined one always: the optimum the start
+        leads to.
         """
         before, matrix = candidate
         better = refine_transform(
@@ -192,7 +212,7 @@ class _Maps:
             params=self.params.gauss_newton,
         )
         after = self.verify(better)
-        if rank(after) >= rank(before) - self.params.keep_refined_margin:
+        if not keep or rank(after) >= rank(before) - self.params.keep_refined_margin:
             return after, better
         return before, matrix
 
@@ -228,10 +248,10 @@ def _rotation_hypotheses(maps: _Maps, factor: int) -> tuple[list[float], CoarseM
 
 def _translation_hypotheses(
     coarse1: CoarseMap, coarse2: CoarseMap, thetas: list[float], params: TomographicParams
-) -> tuple[list[NDArray[np.float64]], list[float]]:
-    """For each rotation and its half-turn twin, the strongest translations and their values."""
-    candidates: list[NDArray[np.float64]] = []
-    correlation: list[float] = []
+) -> list[Peak]:
+    """For each rotation and its half-turn twin, the strongest and the most significant
+    translations."""
+    candidates: list[Peak] = []
     for theta in thetas:
         turns = translation_peaks(
             coarse1,
@@ -239,20 +259,20 @@ def _translation_hypotheses(
             theta,
             count=params.translation.peaks,
             suppression=params.translation.peak_suppression,
+            significant=params.translation.significant_peaks,
+            overlap_power=params.translation.overlap_power,
+            min_overlap_blocks=params.translation.min_overlap_blocks,
         )
         for peaks in turns:
-            for matrix, value in peaks:
-                candidates.append(matrix)
-                correlation.append(value)
-    return candidates, correlation
+            candidates += peaks
+    return candidates
 
 
-def _screened(
-    maps: _Maps, candidates: list[NDArray[np.float64]], correlation: list[float]
-) -> list[NDArray[np.float64]]:
+def _screened(maps: _Maps, candidates: list[Peak]) -> list[NDArray[np.float64]]:
     """Every hypothesis, in the order the refinement admits them.
 
-    First the ``correlation_refined`` strongest by correlation, then the rest
+    First the ``correlation_refined`` strongest by collected mass and the
+    ``significance_refined`` most significant of the others, then the rest
     by a quick verification on every ``screen_stride``-th wall cell: before
     refinement a true but slightly misaligned transform can fit worse than
     one that lays a single outer corner on a corner, which the correlation
@@ -261,13 +281,18 @@ def _screened(
     params = maps.params
     stride = params.verify.screen_stride
     scores = [
-        rank(verify(maps.first, maps.second, m, stride=stride, params=params.verify))
-        for m in candidates
+        rank(verify(maps.first, maps.second, peak.matrix, stride=stride, params=params.verify))
+        for peak in candidates
     ]
-    by_correlation = [int(i) for i in np.argsort(correlation)[::-1][: params.correlation_refined]]
+    masses = [peak.mass for peak in candidates]
+    by_mass = [int(i) for i in np.argsort(masses)[::-1][: params.correlation_refined]]
+    others = [i for i in range(len(candidates)) if i not in by_mass]
+    others.sort(key=lambda i: -candidates[i].significance)
+    by_significance = others[: params.significance_refined]
+    first = by_mass + by_significance
     by_score = sorted(range(len(candidates)), key=lambda i: -scores[i])
-    order = by_correlation + [i for i in by_score if i not in by_correlation]
-    return [candidates[i] for i in order]
+    order = first + [i for i in by_score if i not in first]
+    return [candidates[i].matrix for i in order]
 
 
 def coarse_to_fine(stage: RefineStage, factor: int, params: TomographicParams) -> RefineStage:
@@ -361,14 +386,64 @@ def _merge_observed(
             timings=timings,
             reason="no placement to weigh: the maps are too small to hold a wall direction",
         )
-    best = pool[0][1]
-    runner_up, far_runner_up = _runners_up(
-        pool, second.points, (params.distinct_cells, params.robust.distinct_cells)
-    )
     hypotheses = tuple(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
     )
-    return _judged(maps, best, (runner_up, far_runner_up), hypotheses, timings)
+    result = _judged_first(maps, pool, hypotheses, timings)
+    if result.accepted:
+        return result
+    # The best by score is refused: a placement whose walls meet exactly may explain a
+    # small overlap that the score, preferring much shared space, ranked below a loose
+    # large one. Such a placement is judged too, against all the others.
+    close = _close_alternative(maps, pool)
+    if close is None:
+        return result
+    pool = [_finished(maps, pool[close]), *pool[:close], *pool[close + 1 :]]
+    alternative = _judged_first(maps, pool, hypotheses, timings)
+    return alternative if alternative.accepted else result
+
+
+def _judged_first(
+    maps: _Maps,
+    pool: list[Candidate],
+    hypotheses: tuple[Hypothesis, ...],
+    timings: dict[str, float],
+) -> MergeResult:
+    """The verdict on the pool's first placement, held against the rest."""
+    params = maps.params
+    runners_up = _runners_up(
+        pool, maps.second.points, (params.distinct_cells, params.robust.distinct_cells)
+    )
+    return _judged(maps, pool[0][1], runners_up, hypotheses, timings, compromise=True)
+
+
+def _close_alternative(maps: _Maps, pool: list[Candidate]) -> int | None:
+    """Index of the pool's placement (after the first) that explains the most net wall
+    cells among those whose walls meet within a cell (``TomographicParams.close_alternative``
+    of the fit) and that lie farther than ``distinct_cells`` from the first; None if none."""
+    params = maps.params
+    best = pool[0][1]
+    chosen, most = None, 0.0
+    for k, (check, matrix) in enumerate(pool[1:], start=1):
+        if check.quality < params.close_alternative or check.net <= most:
+            continue
+        if _rms_between(matrix, best, maps.second.points) > params.distinct_cells:
+            chosen, most = k, check.net
+    return chosen
+
+
+def _finished(maps: _Maps, candidate: Candidate) -> Candidate:
+    """``candidate`` refined on the narrow fields the winner of the schedule was refined on.
+
+    The schedule refines only its best few on its narrow fields
+    (:data:`merging.params.DEFAULT_STAGES`); a placement of the pool judged
+    after the winner may have seen only the widest field's first steps, a
+    cell or two from its optimum, and over a small overlap that becomes two
+    cells or more at map 2's far walls.
+    """
+    for stage in maps.params.stages[1:]:
+        candidate = maps.refine(candidate, stage)
+    return candidate
 
 
 def _runners_up(
@@ -404,9 +479,9 @@ def _search(maps: _Maps, factor: int, timings: dict[str, float]) -> list[Candida
 
     thetas, coarse1, coarse2 = _rotation_hypotheses(maps, factor)
     lap("rotation")
-    candidates, correlation = _translation_hypotheses(coarse1, coarse2, thetas, params)
+    candidates = _translation_hypotheses(coarse1, coarse2, thetas, params)
     lap("translation")
-    screened = _screened(maps, candidates, correlation)
+    screened = _screened(maps, candidates)
     lap("verify")
     pool = _refined(maps, screened, factor)
     lap("refine")
@@ -462,13 +537,17 @@ def _judged(
     timings: dict[str, float],
     *,
     mirror_check: bool = True,
+    compromise: bool = False,
 ) -> MergeResult:
     """The result for ``best``: its confidence, the verdict and, when refused, why.
 
     ``runners_up`` are the best placements different from ``best`` for the
     close fit and for the robust evidence (:func:`merging.evidence.verdict.judge`).
     With ``mirror_check``, the verdict searches for the mirror image of the
-    evidence, for a placement it would otherwise accept.
+    evidence, for a placement it would otherwise accept. With
+    ``compromise``, an accepted placement of maps that bend against each
+    other is moved to the best rigid compromise over the whole overlap
+    (:func:`_compromise`).
     """
     clock = time.perf_counter()
     mirror = _mirror_search(maps, best, timings) if mirror_check else None
@@ -483,17 +562,132 @@ def _judged(
         mirror,
         far_runner_up=far_runner_up,
     )
+    evidence = verdict.evidence
+    confidence, accepted, reason = verdict.confidence, verdict.accepted, verdict.reason
+    if compromise and verdict.accepted and verdict.bent:
+        best, moved = _compromise(maps, best)
+        evidence = {**evidence, "compromise_moved_cells": moved}
+    elif compromise and verdict.accepted:
+        rival = _turned_rival(maps, best)
+        if rival is not None:
+            factor, measures = _rival_factor(maps, best, rival)
+            evidence = {**evidence, **measures}
+            confidence *= factor
+            accepted = confidence >= maps.params.confidence.accept
+            if not accepted:
+                reason = ambiguity_reason(
+                    measures["near_rival_distance_cells"], measures["near_rival_turn_deg"]
+                )
     timings["judge"] = time.perf_counter() - clock - timings.get("mirror", 0.0)
     return MergeResult(
         matrix=best,
-        confidence=verdict.confidence,
-        accepted=verdict.accepted,
+        confidence=confidence,
+        accepted=accepted,
         method="tomographic",
         hypotheses=hypotheses,
         timings=timings,
-        reason=verdict.reason,
-        evidence=verdict.evidence,
+        reason=reason,
+        evidence=evidence,
     )
+
+
+def _turned_rival(maps: _Maps, best: NDArray[np.float64]) -> Candidate | None:
+    """The placement explaining the most that refining ``best`` turned about the overlap
+    finds farther than ``TomographicParams.near_rival_cells`` from it; None if none.
+
+    A small overlap holds map 2's far walls by a lever: a turn moving them
+    two cells moves the overlap's walls by a fraction of one, and two
+    optima of the narrow fields, one of them the truth, may lie that far
+    apart and explain about as much. ``best`` is turned about the centroid
+    of map 2's walls that meet map 1's, by the angles moving all of map 2's
+    walls ``near_rival_turns`` cells RMS either way, and each start refined
+    on the narrow fields to the optimum it leads to: an optimum of its own
+    farther than ``near_rival_cells``, not the start kept, is a rival.
+    """
+    params = maps.params
+    points = maps.second.points
+    landed = apply_transform(best, points)
+    meeting = meeting_walls(maps.first, landed)
+    if not meeting.any():
+        return None
+    pivot = landed[meeting].mean(axis=0)
+    radius = float(np.sqrt(np.mean(np.sum((landed - pivot) ** 2, axis=1))))
+    if radius <= 0.0:
+        return None
+    rival: Candidate | None = None
+    for moved in params.near_rival_turns:
+        for sign in (-1.0, 1.0):
+            turn = (
+                translation_matrix(pivot)
+                @ rigid_matrix(0.0, 0.0, sign * moved / radius)
+                @ translation_matrix(-pivot)
+            )
+            found = (maps.verify(turn @ best), turn @ best)
+            for stage in params.stages[1:]:
+                found = maps.refine(found, stage, keep=False)
+            if _rms_between(found[1], best, points) <= params.near_rival_cells:
+                continue
+            if rival is None or found[0].net > rival[0].net:
+                rival = found
+    return rival
+
+
+def _rival_factor(
+    maps: _Maps, best: NDArray[np.float64], rival: Candidate
+) -> tuple[float, dict[str, float]]:
+    """The distinctiveness factor of ``best`` against a near ``rival`` (the close fit's,
+    :func:`merging.evidence.verify.confidence_factors`) and the measures behind it."""
+    confidence = maps.params.confidence
+    check = maps.verify(best)
+    share = max(rival[0].net, 0.0) / check.net if check.net > 0 else 1.0
+    factor = float(expit(((1.0 - share) - confidence.distinct_margin) / confidence.distinct_width))
+    turn = matrix_to_pose(best)[2] - matrix_to_pose(rival[1])[2]
+    measures = {
+        "near_rival_share": share,
+        "near_rival_distance_cells": _rms_between(rival[1], best, maps.second.points),
+        "near_rival_turn_deg": float(np.degrees(abs(wrap_angle(turn)))),
+        "close_near_distinct": factor,
+    }
+    return factor, measures
+
+
+def _compromise(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+    """The best rigid compromise over the whole overlap of maps that bend, and how far it
+    moved map 2's walls (cells RMS).
+
+    The refinement's last fields, a cell wide or less, hold map 2 where one
+    part of the overlap fits exactly, and the parts that bend away pull on
+    nothing. Fields as wide as the bending (``TomographicParams.compromise``)
+    let every part of the overlap pull, and the placement settles where the
+    whole overlap fits best: the rigid transform a least-squares fit of
+    corresponding points over the whole floor would give. A compromise
+    farther than the bending (``RobustParams.distinct_cells``) is another
+    answer, not the same one bent; then ``best`` is kept.
+    """
+    stage = maps.params.compromise
+    # Full-resolution fields: a field computed on the half-resolution grid is off by
+    # up to a few cells at these widths, which the search's finer fields correct
+    # afterwards and this refinement, the last, would not.
+    full = SmoothedMap(
+        maps.first.walls,
+        maps.first.shape,
+        downsample_from_sigma=2.0 * max(stage.sigmas),
+        whole_field_share=maps.params.gauss_newton.whole_field_share,
+    )
+    moved = refine_transform(
+        full,
+        maps.second,
+        best,
+        sigmas=stage.sigmas,
+        iterations=stage.iterations,
+        local=stage.local,
+        max_points=stage.points,
+        params=maps.params.gauss_newton,
+    )
+    distance = _rms_between(moved, best, maps.second.points)
+    if distance > maps.params.robust.distinct_cells:
+        return best, 0.0
+    return moved, distance
 
 
 def refine_from(

@@ -2,9 +2,9 @@
 
 Runs one episode of frontier exploration (:func:`tomosim.episode.run_episode`):
 three robots on the default generated floor plan, coordinated by the default
-policy, merging every 50 steps with the tomographic method, until the team
-knows 90 % of the free space. It shows
-progress (a bar on a terminal, a line every few seconds elsewhere), records
+policy, merging with the tomographic method every 50 steps (every 10 while
+some robot's map is linked to nobody's), until the team knows 90 % of the free
+space. It shows progress (a bar on a terminal, a line every few seconds elsewhere), records
 the episode to an ``.rrd`` file, and ends with a summary: coverage, steps, and
 per pair the merges accepted and their errors against the simulator's truth
 (or JSON with ``--json``).

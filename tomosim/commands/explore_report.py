@@ -104,9 +104,11 @@ def episode_rows(metrics: EpisodeMetrics) -> list[tuple[str, bool, bool, float, 
 def settings_line(s: Mapping[str, Any]) -> str:
     """A run's settings in one line, as ``tomosim explore`` and ``tomosim review`` head
     their reports: the world, the team, its policy, merging, the reach of its radios."""
-    merging = (
-        f"merging every {s['merge_interval']} steps ({s['method']})" if s["merge"] else "no merging"
-    )
+    merging = "no merging"
+    if s["merge"]:
+        unlinked = s.get("unlinked_merge_interval", s["merge_interval"])
+        sooner = f", {unlinked} while unlinked" if unlinked < s["merge_interval"] else ""
+        merging = f"merging every {s['merge_interval']} steps{sooner} ({s['method']})"
     policy = f"{s['policy']} policy, " if s.get("policy") else ""
     reach = ""
     if s.get("comm_range") is not None:

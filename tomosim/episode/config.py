@@ -163,6 +163,7 @@ class EpisodeConfig:
             "steps": int(self.steps),
             "merge": bool(team.merge),
             "merge_interval": int(team.merge_interval),
+            "unlinked_merge_interval": int(team.unlinked_merge_interval),
             "method": team.method,
             "coverage_target": float(self.coverage_target),
             "comm_range": None if team.comms.range is None else float(team.comms.range),
@@ -170,7 +171,14 @@ class EpisodeConfig:
             "seed": int(self.seed),
             "dt": float(team.simulation.dt),
         }
-        listed = ("merge", "merge_interval", "method", "comms.range", "comms.line_of_sight")
+        listed = (
+            "merge",
+            "merge_interval",
+            "unlinked_merge_interval",
+            "method",
+            "comms.range",
+            "comms.line_of_sight",
+        )
         others = {
             name: value
             for name, value in changed_settings(team).items()

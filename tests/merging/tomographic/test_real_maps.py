@@ -90,10 +90,12 @@ def test_sessions_of_one_floor_are_merged(maps_folder, e5_truth, key: str) -> No
     assert result.evidence["tolerant_mirror_share"] < 0.7
 
 
-@pytest.mark.parametrize("key", ["E5_01|E5_03", "E5_08|E5_07"])
+@pytest.mark.parametrize("key", ["E5_01|E5_03"])
 def test_a_placement_a_few_cells_off_is_the_same_one_bent(maps_folder, e5_truth, key) -> None:
     # Sessions bend by up to half a metre: the second best placement, 5-6 cells from
-    # the best, explains the overlap about as well. The close fit counts it as
+    # the best, explains the overlap about as well. (E5_08|E5_07 showed this too until
+    # the search kept the most significant shifts: its second best now lies 117 cells
+    # off, and the pair is still accepted and right.) The close fit counts it as
     # different, the robust evidence holds the best against one beyond the bending.
     result = merged_sessions(maps_folder / "halmstad", e5_truth, key)
     evidence = result.evidence
