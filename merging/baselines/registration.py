@@ -35,6 +35,7 @@ rotation, and scale-invariant image registration", IEEE TIP 5(8), 1996.
 from __future__ import annotations
 
 import time
+import warnings
 from typing import Any
 
 import numpy as np
@@ -48,6 +49,21 @@ from merging.baselines.common import UNKNOWN_GREY, check_no_options, render, ver
 from merging.result import Hypothesis, MergeResult
 from merging.transforms import rigid_matrix, translation_matrix
 from merging.warp import warp_cells
+
+EMPTY_IMAGE_WARNING = "Could not determine RMS error"
+"""The start of the warning :func:`skimage.registration.phase_cross_correlation` gives
+when an image is empty (a map of walls only has no band magnitude): the shift it
+returns is still defined, and the error it could not compute is not used here."""
+
+
+def _phase_shift(reference: NDArray[Any], moving: NDArray[Any], **options: Any) -> NDArray[Any]:
+    """The shift of :func:`~skimage.registration.phase_cross_correlation`, without its
+    warning about an error metric this module does not use (:data:`EMPTY_IMAGE_WARNING`)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=EMPTY_IMAGE_WARNING, category=UserWarning)
+        shift, _, _ = phase_cross_correlation(reference, moving, **options)
+    return np.asarray(shift)
+
 
 ANGLE_ROWS = 720
 """Rows of the log-polar image over 360°: half a degree per row before the
@@ -110,9 +126,7 @@ def rotation_modulo_half_turn(image1: NDArray[np.float32], image2: NDArray[np.fl
         )
         for image in (image1, image2)
     )
-    shift, _, _ = phase_cross_correlation(
-        polar1, polar2, upsample_factor=UPSAMPLE, normalization=None
-    )
+    shift = _phase_shift(polar1, polar2, upsample_factor=UPSAMPLE, normalization=None)
     # Row k of warp_polar's output is the ray at angle 2πk / ANGLE_ROWS,
     # counter-clockwise in the (x, y) = (col, row) frame. Shifting polar2 by
     # +k rows lays it on polar1, so image 2 is image 1 turned by -k rows.
@@ -172,7 +186,7 @@ def translation_candidates(
         if shape not in fixed:
             fixed[shape] = fft.fft2(_pad(image1, shape))
         moving = _pad(image2, shape)
-        shift, _, _ = phase_cross_correlation(
+        shift = _phase_shift(
             fixed[shape], fft.fft2(moving), upsample_factor=UPSAMPLE, space="fourier"
         )
         dy = _unwrap(float(shift[0]), shape[0], 1 - image2.shape[0], image1.shape[0] - 1)

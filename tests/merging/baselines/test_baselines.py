@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from skimage.feature import corner_harris, corner_peaks
@@ -127,6 +127,7 @@ grids = arrays(
 
 
 @pytest.mark.parametrize("method", BASELINES)
+@example(first=np.full((1, 10), 100, np.int8), second=np.full((27, 27), 100, np.int8))
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(first=grids, second=grids)
 def test_never_raises_on_valid_grids(method: str, first: np.ndarray, second: np.ndarray) -> None:
