@@ -16,7 +16,7 @@ kernel                                           oracle
 :func:`~tomosim.kernels.logodds.integrate_scan`  :func:`tomosim.mapping.integrate_rays` and
                                                  :func:`tomosim.mapping.ros_codes`; it does the work
                                                  of :func:`~tomosim.kernels.logodds.update_grid`
-:func:`~tomosim.kernels.reveal.reveal_cells`     the evaluation rule of
+:func:`~tomosim.kernels.reveal.reveal_team`      the evaluation rule of
                                                  :func:`tomosim.evaluation.known_in_world`
 :func:`~tomosim.kernels.crop.crop_max_pool`      window slicing and a reshaped maximum in
                                                  numpy (``tests/tomosim/kernels/test_kernels.py``)

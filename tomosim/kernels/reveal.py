@@ -3,10 +3,9 @@
 Each robot's counted truth cells are indexed by the lattice cell of its map
 frame their centres fall in (:mod:`tomosim.team.coverage`), as a sorted key
 array; a map cell observed for the first time reveals the truth cells under
-its key, found by binary search, or, for a team's step
-(:func:`reveal_team`), by looking the key up in a table of where each key
-starts (:func:`first_of_keys`). The oracle is the evaluation rule of
-:func:`tomosim.evaluation.known_in_world`.
+its key, looked up in a table of where each key starts
+(:func:`first_of_keys`); one call does a team's step (:func:`reveal_team`).
+The oracle is the evaluation rule of :func:`tomosim.evaluation.known_in_world`.
 """
 
 from __future__ import annotations
@@ -15,36 +14,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tomosim.kernels.jit import kernel
-
-
-@kernel
-def truth_under(
-    cells: NDArray[np.int64],
-    origin_a: int,
-    origin_b: int,
-    width: int,
-    keys: NDArray[np.int64],
-    starts: NDArray[np.int64],
-) -> int:
-    """Find where the truth cells under each of ``cells`` start in ``keys``; count them.
-
-    ``starts[k]`` becomes the index in ``keys`` of the first truth cell under
-    ``cells[k]``, or -1 where there is none (arguments as in :func:`reveal_cells`).
-    """
-    total = 0
-    for k in range(cells.shape[0]):
-        starts[k] = -1
-        a = cells[k, 0] - origin_a
-        if a < 0 or a >= width:
-            continue
-        key = (cells[k, 1] - origin_b) * width + a
-        i = np.searchsorted(keys, key)
-        if i < keys.shape[0] and keys[i] == key:
-            starts[k] = i
-            while i < keys.shape[0] and keys[i] == key:
-                total += 1
-                i += 1
-    return total
 
 
 def first_of_keys(keys: NDArray[np.int64]) -> NDArray[np.int32]:
@@ -68,9 +37,13 @@ def truth_under_table(
     table: NDArray[np.int32],
     starts: NDArray[np.int64],
 ) -> int:
-    """:func:`truth_under` with the start of each key looked up in ``table``
-    (:func:`first_of_keys` of ``keys``) instead of searched for: the same ``starts``
-    and count."""
+    """Find where the truth cells under each of ``cells`` start in ``keys``; count them.
+
+    ``starts[k]`` becomes the index in ``keys`` of the first truth cell under
+    ``cells[k]``, or -1 where there is none; the start of a key is looked up in
+    ``table`` (:func:`first_of_keys` of ``keys``). Arguments as in :func:`reveal_team`,
+    for one robot.
+    """
     total = 0
     for k in range(cells.shape[0]):
         starts[k] = -1
@@ -98,7 +71,7 @@ def collect_truth(
     known: NDArray[np.bool_],
     found: NDArray[np.int64],
 ) -> int:
-    """Mark the truth cells :func:`truth_under` found and write those not known before
+    """Mark the truth cells :func:`truth_under_table` found and write those not known before
     into ``found`` (long enough for all); returns how many it wrote."""
     count = 0
     for k in range(starts.shape[0]):
@@ -114,43 +87,6 @@ def collect_truth(
                 count += 1
             i += 1
     return count
-
-
-@kernel
-def reveal_cells(
-    cells: NDArray[np.int64],
-    origin_a: int,
-    origin_b: int,
-    width: int,
-    keys: NDArray[np.int64],
-    members: NDArray[np.int64],
-    known: NDArray[np.bool_],
-) -> NDArray[np.int64]:
-    """Mark and return the truth cells under newly observed lattice cells.
-
-    Parameters
-    ----------
-    cells : (K, 2) int64 ndarray
-        Lattice cells ``(a, b)`` of the robot's map observed for the first time.
-    origin_a, origin_b, width : int
-        The key of lattice cell ``(a, b)`` is ``(b - origin_b) * width + (a - origin_a)``
-        (cells outside ``0 <= a - origin_a < width`` hold no truth cell).
-    keys : (T,) int64 ndarray
-        Sorted keys of the truth cells.
-    members : (T,) int64 ndarray
-        The truth cell (index into ``known``) of each key.
-    known : (N,) bool ndarray
-        Which truth cells the robot knows; updated in place.
-
-    Returns
-    -------
-    (R,) int64 ndarray
-        Indices of the truth cells known for the first time.
-    """
-    # Two passes: count the truth cells under the cells, then collect the unknown ones.
-    starts = np.empty(cells.shape[0], dtype=np.int64)
-    found = np.empty(truth_under(cells, origin_a, origin_b, width, keys, starts), dtype=np.int64)
-    return found[: collect_truth(starts, keys, members, known, found)]
 
 
 @kernel
@@ -171,7 +107,8 @@ def reveal_team(
     credit: NDArray[np.float64],
     cell_area: float,
 ) -> tuple[NDArray[np.int64], int, bool]:
-    """:func:`reveal_cells` for every robot of a team, then what the team learnt.
+    """Mark the truth cells under every robot's newly observed lattice cells, then what
+    the team learnt.
 
     Parameters
     ----------
@@ -181,13 +118,18 @@ def reveal_team(
         Robot ``k``'s cells are ``cells[starts[k]:starts[k + 1]]``.
     origins : (N, 2) int64 ndarray
     widths : (N,) int64 ndarray
+        Per robot, the key of lattice cell ``(a, b)`` is ``(b - origin_b) * width +
+        (a - origin_a)`` (cells outside ``0 <= a - origin_a < width`` hold no truth
+        cell).
     keys, members : (N, T) int64 ndarray
+        Per robot, the sorted keys of its truth cells, and the truth cell (index into
+        ``known``) of each key.
     tables : int32 ndarray
     table_starts : (N + 1,) int64 ndarray
         Robot ``k``'s :func:`first_of_keys` of ``keys[k]`` is
         ``tables[table_starts[k]:table_starts[k + 1]]``.
     known : (N, T) bool ndarray
-        Per robot, the arguments of :func:`reveal_cells` (``known`` updated in place).
+        Per robot, which truth cells it knows; updated in place.
     counts : (N,) int64 ndarray
         Per robot, the number of truth cells it knows; updated in place.
     team_known : (T,) bool ndarray

@@ -13,8 +13,8 @@ unknown again.
 A robot's counted truth cells are indexed by the lattice cell of its map
 frame they fall in (:mod:`tomosim.team.sharing` defines the lattice), so that
 a map cell observed for the first time reveals exactly the truth cells under
-it (:func:`tomosim.kernels.reveal.reveal_cells`; one compiled call does
-all robots of a step, :func:`~tomosim.kernels.reveal.reveal_team`): a step
+it (one compiled call does all robots of a step,
+:func:`tomosim.kernels.reveal.reveal_team`): a step
 costs in proportion to the cells it observed first, which
 :class:`~tomosim.mapping.LogOddsMap` journals, not to the size of the grids.
 :meth:`TeamCoverage.update` takes whole grids instead (any grids, at any time;
@@ -62,7 +62,7 @@ def _lattice_keys(
 ) -> tuple[tuple[int, int], int, NDArray[np.int64], NDArray[np.int64]]:
     """One robot's counted truth cells keyed by their lattice cell in its map frame:
     the lattice origin and width of the keys, the sorted keys, and the truth cell of
-    each (:func:`tomosim.kernels.reveal.reveal_cells`)."""
+    each (:func:`tomosim.kernels.reveal.reveal_team`)."""
     low = lattice.min(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
     high = lattice.max(axis=0) if len(lattice) else np.zeros(2, dtype=np.int64)
     width = int(high[0] - low[0]) + 1

@@ -20,7 +20,7 @@ from tomosim.kernels.logodds import (
     saturated_run,
 )
 from tomosim.kernels.raycast import TWO_PI, cast_scan, turn_remainder
-from tomosim.kernels.reveal import first_of_keys, truth_under, truth_under_table
+from tomosim.kernels.reveal import first_of_keys, truth_under_table
 from tomosim.lidar import Lidar, LidarConfig
 from tomosim.mapping import (
     CODE_THRESHOLDS,
@@ -314,17 +314,23 @@ def test_log_odds_kernel_refuses_scratch_memory_too_small_for_the_scan() -> None
     assert not np.any(logodds)  # refused before it changed anything
 
 
-def test_truth_under_looks_keys_up_as_the_binary_search_finds_them() -> None:
+def test_truth_under_finds_the_first_of_each_key_and_counts_them() -> None:
     rng = np.random.default_rng(14)
     keys = np.sort(rng.integers(0, 400, 300))  # repeated keys, and gaps
     table = first_of_keys(keys)
     assert table.shape == (keys[-1] + 1,)
     cells = rng.integers(-5, 30, (500, 2))  # some off the keys' lattice on either side
-    searched, looked_up = np.empty(500, np.int64), np.empty(500, np.int64)
-    total = truth_under(cells, 2, 3, 20, keys, searched)
-    assert truth_under_table(cells, 2, 3, 20, keys, table, looked_up) == total > 0
-    np.testing.assert_array_equal(looked_up, searched)
-    assert np.count_nonzero(searched >= 0) > 50  # many cells found, many not
+    starts = np.empty(500, np.int64)
+    total = truth_under_table(cells, 2, 3, 20, keys, table, starts)
+    expected_starts, expected_total = [], 0
+    for a, b in cells:
+        key = (b - 3) * 20 + (a - 2)
+        hits = np.flatnonzero(keys == key) if 0 <= a - 2 < 20 else np.zeros(0, np.int64)
+        expected_starts.append(hits[0] if len(hits) else -1)
+        expected_total += len(hits)
+    np.testing.assert_array_equal(starts, expected_starts)
+    assert total == expected_total > 0
+    assert np.count_nonzero(starts >= 0) > 50  # many cells found, many not
     assert first_of_keys(np.zeros(0, np.int64)).shape == (0,)
 
 
