@@ -125,13 +125,20 @@ class SB3VectorEnv(VecEnv):
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         """Not supported: the environments live behind SuperSuit."""
-        raise NotImplementedError("set_attr is not supported through SuperSuit's vector env")
+        raise NotImplementedError(
+            f"set_attr({attr_name!r}) is not supported through SuperSuit's vector env: "
+            "pass the setting to envs.vector.make_sb3_vector_env when making it"
+        )
 
     def env_method(
         self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any
     ) -> list[Any]:
         """Not supported: the environments live behind SuperSuit."""
-        raise NotImplementedError("env_method is not supported through SuperSuit's vector env")
+        raise NotImplementedError(
+            f"env_method({method_name!r}) is not supported through SuperSuit's vector env: "
+            "the robots share environments; call the method on an environment made with "
+            "envs.multi_robot_exploration_v0.parallel_env instead"
+        )
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         """No entry is wrapped in a Gymnasium wrapper (they are robots, not envs)."""

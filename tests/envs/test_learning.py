@@ -227,3 +227,19 @@ def test_ppo_trains_a_few_iterations_and_reports(tmp_path: Path) -> None:
     coverage = events.Scalars("exploration/team_coverage")
     assert coverage and all(0.0 < point.value <= 1.0 for point in coverage)
     assert coverage[-1].step <= summary["timesteps"]  # against agent-steps
+
+
+@pytest.mark.slow
+@needs_rl
+def test_sb3_adapter_refuses_what_supersuit_hides_and_says_what_to_do() -> None:
+    from envs.vector import make_sb3_vector_env
+
+    venv = make_sb3_vector_env(1, **SMALL, max_cycles=10)
+    try:
+        assert venv.env_is_wrapped(object) == [False, False]
+        with pytest.raises(NotImplementedError, match=r"set_attr\('max_cycles'\).*make_sb3"):
+            venv.set_attr("max_cycles", 5)
+        with pytest.raises(NotImplementedError, match=r"env_method\('reset'\).*parallel_env"):
+            venv.env_method("reset")
+    finally:
+        venv.close()
