@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 from policy_comparison.evaluation import Agents, compare
-from policy_comparison.report import write_run_outputs
+from policy_comparison.report import refuse_used_folder, write_run_outputs
 
 from envs import multi_robot_exploration_v0 as exploration
 from envs.vector import RL_INSTALL, make_sb3_vector_env
@@ -159,12 +159,7 @@ def main() -> None:
         args.n_steps, args.batch_size, args.epochs, args.eval_episodes = 32, 32, 1, 1
     if args.batch_size < 2:  # Stable-Baselines3 asserts on it after the environments start
         parser.error(f"--batch-size must be at least 2, got {args.batch_size}")
-    written = [name for name in OUTPUTS if (args.out / name).exists()]
-    if written:  # a rerun, or one interrupted, would leave old and new files mixed
-        parser.error(
-            f"--out {args.out} already holds a run ({', '.join(written)}); choose another "
-            "folder or remove it"
-        )
+    refuse_used_folder(parser, args.out, OUTPUTS)
     try:
         import torch
         from stable_baselines3 import PPO

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 from policy_comparison.evaluation import Agents, compare
-from policy_comparison.report import write_run_outputs
+from policy_comparison.report import refuse_used_folder, write_run_outputs
 
 from envs import multi_robot_exploration_v0 as exploration
 from envs.learning_metrics import EPISODE_SCALARS
@@ -255,12 +255,7 @@ def main() -> None:
     if args.smoke:
         args.robots, args.max_cycles, args.world_size = 2, 40, [12.0, 9.0]
         args.batch_size, args.minibatch_size, args.epochs, args.eval_episodes = 80, 80, 1, 1
-    written = [name for name in OUTPUTS if (args.out / name).exists()]
-    if written:  # a rerun, or one interrupted, would leave old and new files mixed
-        parser.error(
-            f"--out {args.out} already holds a run ({', '.join(written)}); choose another "
-            "folder or remove it"
-        )
+    refuse_used_folder(parser, args.out, OUTPUTS)
     try:
         import envs.rllib  # noqa: F401  (without RLlib or torch, fails with the install command)
     except ImportError as error:

@@ -1,13 +1,27 @@
-"""A finished training run's outputs: ``summary.json``, the learning-curve plot, the printout."""
+"""A training run's output folder: refused when already used; ``summary.json``, the
+learning-curve plot and the printout written when the run is done."""
 
 from __future__ import annotations
 
+import argparse
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from .curves import plot_curve
 from .evaluation import print_comparison
+
+
+def refuse_used_folder(parser: argparse.ArgumentParser, out: Path, outputs: Sequence[str]) -> None:
+    """Stop with a usage error when ``out`` already holds any of a run's ``outputs``: a
+    rerun, or one interrupted, would leave old and new files mixed."""
+    written = [name for name in outputs if (out / name).exists()]
+    if written:
+        parser.error(
+            f"--out {out} already holds a run ({', '.join(written)}); choose another "
+            "folder or remove it"
+        )
 
 
 def write_run_outputs(
