@@ -13,6 +13,9 @@ from merging.evidence.blur import blur_walls
 from merging.evidence.refine import Field, SmoothedMap, _field_sample, refine_transform
 from merging.evidence.refine_kernels import normal_equations
 from merging.evidence.verify import (
+    CLEAR_BIT,
+    KNOWN_BIT,
+    NEAR_BIT,
     Verification,
     _landing,
     confidence,
@@ -37,6 +40,7 @@ from merging.tomographic.angular import (
     rotation_correlation,
     rotation_peaks,
 )
+from merging.tomographic.correlate import _raise_to
 from merging.tomographic.search import refine_from
 from merging.transforms import apply_transform, cells_to_metres, rigid_matrix
 from tests.merging.builders import synthetic_building, turned
@@ -367,3 +371,24 @@ def test_compiled_landing_counts_match_numpy(building: np.ndarray) -> None:
         clear = first.clear_free[rows, cols]
         assert counts == (known.sum(), near.sum(), clear.sum())
         assert counts[1] > 0 and counts[0] > counts[1]
+
+
+def test_landing_codes_hold_each_mask_in_its_bit(building: np.ndarray) -> None:
+    prepared = prepare_map(building)
+    codes = prepared.landing
+    near = prepared.near_occupied
+    assert np.array_equal((codes & KNOWN_BIT) > 0, near | (prepared.cells >= 0))
+    assert np.array_equal((codes & NEAR_BIT) > 0, near)
+    assert np.array_equal((codes & CLEAR_BIT) > 0, prepared.clear_free)
+    assert codes.max() <= KNOWN_BIT | NEAR_BIT | CLEAR_BIT
+
+
+@pytest.mark.parametrize("power", [0.5, 0.4, 1.0])
+def test_significance_power_matches_numpy_to_the_bit(power: float) -> None:
+    # Positive float32 bit patterns from the smallest subnormal to the largest finite.
+    generator = np.random.default_rng(11)
+    bits = generator.integers(1, 0x7F800000, size=200_000, dtype=np.uint32)
+    values = np.concatenate([bits.view(np.float32), np.float32([4.0, 5.0, 1e6])])
+    raised = values.copy()
+    _raise_to(raised, power)
+    assert np.array_equal(raised.view(np.uint32), np.power(values, power).view(np.uint32))
