@@ -150,7 +150,10 @@ def estimate_transform(
     if both_grids:
         (cells1, to_search1), (cells2, to_search2) = _common_resolution(map1, map2)  # type: ignore[arg-type]
     generator = as_generator(rng)
-    counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
+    counts = (
+        int(np.count_nonzero(occupied_mask(cells1))),
+        int(np.count_nonzero(occupied_mask(cells2))),
+    )
     if min(counts) < MIN_OCCUPIED_CELLS:
         result = MergeResult(
             matrix=np.eye(3),

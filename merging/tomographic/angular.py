@@ -97,7 +97,8 @@ def _upper_half_magnitude(image: NDArray[np.float32], size: int) -> NDArray[np.f
     frame = np.zeros((columns.shape[0], size), dtype=columns.dtype)
     frame[:, : image.shape[1]] = columns
     half = fft.fft(frame, axis=1, overwrite_x=True)
-    return np.abs(fft.fftshift(half, axes=1))
+    # The magnitudes, then the shift: it moves half the bytes of the complex values.
+    return fft.fftshift(np.abs(half), axes=1)
 
 
 @numba.njit(cache=True, nogil=True)
