@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -71,7 +72,7 @@ class SmoothedMap:
         Share of the map above which a local field is the whole map's.
     """
 
-    __slots__ = ("_downsample_from", "_fields", "_shape", "_walls", "_whole_share")
+    __slots__ = ("_curvature", "_downsample_from", "_fields", "_shape", "_walls", "_whole_share")
 
     def __init__(
         self,
@@ -86,6 +87,8 @@ class SmoothedMap:
         self._downsample_from = downsample_from_sigma
         self._whole_share = whole_field_share
         self._fields: dict[float, Field] = {}
+        # The last curvature_matrix call: (map 2, matrix, local, params) and its answer.
+        self._curvature: tuple[Any, ...] | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -349,7 +352,32 @@ def curvature_matrix(
 ) -> tuple[NDArray[np.float64] | None, int]:
     """The curvature of :func:`constraint_strength` (whitened, coordinates ``(x, y, turn)``,
     per point used) and the stride of map 2's points it used; None where map 2 lands off
-    a local field."""
+    a local field.
+
+    The answer of the last call on ``smoothed`` is kept (read-only): the verdict asks
+    for the curvature at one placement twice, for the constraint and the turn.
+    """
+    matrix = np.ascontiguousarray(matrix, dtype=np.float64)
+    key = matrix.tobytes()  # to the bit
+    kept = smoothed._curvature
+    if kept is not None and kept[0] is second and kept[1:4] == (key, local, params):
+        return kept[4], kept[5]
+    curvature, stride = _curvature_matrix(smoothed, second, matrix, local=local, params=params)
+    if curvature is not None:
+        curvature.setflags(write=False)
+    smoothed._curvature = (second, key, local, params, curvature, stride)
+    return curvature, stride
+
+
+def _curvature_matrix(
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    local: bool,
+    params: GaussNewtonParams,
+) -> tuple[NDArray[np.float64] | None, int]:
+    """:func:`curvature_matrix`, computed."""
     stride = max(1, int(np.ceil(len(second.points) / params.curvature_points)))
     points = second.points[::stride]
     sigma = params.curvature_sigma

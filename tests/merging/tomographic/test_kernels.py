@@ -10,7 +10,13 @@ from scipy import ndimage
 
 import merging
 from merging.evidence.blur import blur_walls
-from merging.evidence.refine import Field, SmoothedMap, _field_sample, refine_transform
+from merging.evidence.refine import (
+    Field,
+    SmoothedMap,
+    _field_sample,
+    curvature_matrix,
+    refine_transform,
+)
 from merging.evidence.refine_kernels import normal_equations
 from merging.evidence.verify import (
     CLEAR_BIT,
@@ -27,6 +33,7 @@ from merging.evidence.verify import (
 from merging.grid import free_mask, occupied_mask
 from merging.params import (
     ConfidenceParams,
+    GaussNewtonParams,
     RefineStage,
     RobustParams,
     TomographicParams,
@@ -392,3 +399,36 @@ def test_significance_power_matches_numpy_to_the_bit(power: float) -> None:
     raised = values.copy()
     _raise_to(raised, power)
     assert np.array_equal(raised.view(np.uint32), np.power(values, power).view(np.uint32))
+
+
+def test_curvature_is_kept_for_the_same_placement_only(building: np.ndarray) -> None:
+    first, second = prepare_map(building), prepare_map(turned(building, 20.0, (5, -3))[0])
+    smoothed = SmoothedMap(first.walls, first.shape)
+    matrix = rigid_matrix(12.0, -7.0, 0.35)
+    curvature, stride = curvature_matrix(smoothed, second, matrix, local=True)
+    again, _ = curvature_matrix(smoothed, second, matrix.copy(), local=True)
+    assert again is curvature and curvature is not None and not curvature.flags.writeable
+    fresh, fresh_stride = curvature_matrix(
+        SmoothedMap(first.walls, first.shape), second, matrix, local=True
+    )
+    assert fresh is not None and np.array_equal(curvature, fresh) and stride == fresh_stride
+    # Another placement, another map 2 or other settings are computed anew.
+    default, wider = GaussNewtonParams(), replace(GaussNewtonParams(), curvature_sigma=3.0)
+    others = (
+        (second, rigid_matrix(14.0, -6.0, 0.3), default),
+        (prepare_map(turned(building, 25.0, (5, -3))[0]), matrix, default),
+        (second, matrix, wider),
+    )
+    for other_second, other_matrix, params in others:
+        kept = SmoothedMap(first.walls, first.shape)
+        curvature_matrix(kept, second, matrix, local=True)
+        got = curvature_matrix(kept, other_second, other_matrix, local=True, params=params)[0]
+        want = curvature_matrix(
+            SmoothedMap(first.walls, first.shape),
+            other_second,
+            other_matrix,
+            local=True,
+            params=params,
+        )[0]
+        assert got is not None and want is not None
+        assert np.array_equal(got, want) and not np.array_equal(got, curvature)
