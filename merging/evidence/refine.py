@@ -72,7 +72,15 @@ class SmoothedMap:
         Share of the map above which a local field is the whole map's.
     """
 
-    __slots__ = ("_curvature", "_downsample_from", "_fields", "_shape", "_walls", "_whole_share")
+    __slots__ = (
+        "_boxed",
+        "_curvature",
+        "_downsample_from",
+        "_fields",
+        "_shape",
+        "_walls",
+        "_whole_share",
+    )
 
     def __init__(
         self,
@@ -87,6 +95,8 @@ class SmoothedMap:
         self._downsample_from = downsample_from_sigma
         self._whole_share = whole_field_share
         self._fields: dict[float, Field] = {}
+        # The latest fields of boxes, oldest first (at most BOXED_FIELDS_KEPT).
+        self._boxed: dict[tuple[float, tuple[int, int, int, int]], Field] = {}
         # The last curvature_matrix call: (map 2, matrix, local, params) and its answer.
         self._curvature: tuple[Any, ...] | None = None
 
@@ -99,10 +109,12 @@ class SmoothedMap:
         """The field at width ``sigma`` (cells), over all of map 1 or over ``box``.
 
         ``box = (x_lo, y_lo, x_hi, y_hi)`` in cells (exclusive upper bounds)
-        computes the field of that part only, uncached: cheaper when only
-        the overlap matters. A box covering more than ``whole_field_share``
-        of the map takes the whole map's field instead, computed once for
-        every candidate and the curvature.
+        computes the field of that part only: cheaper when only the overlap
+        matters. The latest :data:`BOXED_FIELDS_KEPT` of those are kept, as a
+        placement that moved less than a cell asks for the same box again
+        (a refined candidate's curvature, say). A box covering more than
+        ``whole_field_share`` of the map takes the whole map's field
+        instead, computed once for every candidate and the curvature.
         """
         if box is not None:
             x_lo, y_lo, x_hi, y_hi = box
@@ -110,6 +122,10 @@ class SmoothedMap:
                 box = None
         if box is None and sigma in self._fields:
             return self._fields[sigma]
+        if box is not None:
+            key = (sigma, (int(box[0]), int(box[1]), int(box[2]), int(box[3])))
+            if key in self._boxed:
+                return self._boxed[key]
         scale = field_scale(sigma, self._downsample_from)
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
@@ -125,8 +141,16 @@ class SmoothedMap:
         field = Field(image, scale, (x_lo, y_lo), sigma)
         if box is None:
             self._fields[sigma] = field
+        else:
+            if len(self._boxed) >= BOXED_FIELDS_KEPT:
+                del self._boxed[next(iter(self._boxed))]
+            self._boxed[key] = field
         return field
 
+
+BOXED_FIELDS_KEPT = 8
+"""Fields of boxes a smoothed map keeps: on the low-overlap windows a fifth of the boxed
+fields asked for had been asked for before, most of them a few calls earlier."""
 
 WORK_SPACE_CELLS = 1 << 20
 """Field pixels up to which a thread keeps the blur's work space (17 MB) for the next field."""
