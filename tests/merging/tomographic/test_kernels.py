@@ -11,6 +11,7 @@ from scipy import ndimage
 import merging
 from merging.evidence.blur import blur_walls
 from merging.evidence.refine import (
+    BOXED_FIELDS_KEPT,
     Field,
     SmoothedMap,
     _field_sample,
@@ -78,6 +79,8 @@ def test_upper_half_magnitude_is_that_of_the_full_transform(shape) -> None:
     half = _upper_half_magnitude(image, 256)
     assert half.shape == (129, 256)
     assert np.allclose(half[:128], full[128:], rtol=1e-4, atol=1e-3)  # Nyquist row aside
+    # The first rows alone, as the angular spectrum asks for them, are the same to the bit.
+    assert np.array_equal(_upper_half_magnitude(image, 256, rows=97), half[:97])
 
 
 @pytest.mark.parametrize("degrees", [17.0, 63.0, 121.0])
@@ -432,3 +435,19 @@ def test_curvature_is_kept_for_the_same_placement_only(building: np.ndarray) -> 
         )[0]
         assert got is not None and want is not None
         assert np.array_equal(got, want) and not np.array_equal(got, curvature)
+
+
+def test_boxed_fields_are_kept_and_equal_to_fresh_ones(building: np.ndarray) -> None:
+    walls = prepare_map(building).walls
+    smoothed = SmoothedMap(walls, building.shape)
+    box = (40, 30, 160, 120)
+    field = smoothed.field(1.0, box=box)
+    assert smoothed.field(1.0, box=box) is field
+    fresh = SmoothedMap(walls, building.shape).field(1.0, box=box)
+    assert np.array_equal(field.image, fresh.image) and field.corner == fresh.corner
+    # Another width or box is another field; the oldest kept one is dropped first.
+    assert smoothed.field(0.6, box=box) is not field
+    for shift in range(BOXED_FIELDS_KEPT):
+        smoothed.field(1.0, box=(41 + shift, 30, 160, 120))
+    again = smoothed.field(1.0, box=box)
+    assert again is not field and np.array_equal(again.image, field.image)
