@@ -167,7 +167,8 @@ def estimate_transform(
         result = _METHODS[method](cells1, cells2, rng=generator, **options)
     timings = dict(result.timings)
     timings["total"] = time.perf_counter() - start
-    matrix = np.linalg.inv(to_search1) @ result.matrix @ to_search2
+    from_search1 = np.linalg.inv(to_search1)
+    matrix = from_search1 @ result.matrix @ to_search2
     metres = cells_to_metres(matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
     return MergeResult(
         matrix=matrix,
@@ -176,8 +177,7 @@ def estimate_transform(
         method=method,
         matrix_metres=metres,
         hypotheses=tuple(
-            replace(h, matrix=np.linalg.inv(to_search1) @ h.matrix @ to_search2)
-            for h in result.hypotheses
+            replace(h, matrix=from_search1 @ h.matrix @ to_search2) for h in result.hypotheses
         ),
         timings=timings,
         reason=result.reason,
