@@ -377,6 +377,40 @@ class ConfidenceParams:
         the near rival (``TomographicParams.near_rival_turns``) refusing
         those, 10 still accepts one 2.75 cells off on seed 2121, which 15
         refuses.
+    turn_return_cells : float
+        How near (cells RMS over map 2's walls) the narrow refinement must
+        come back to a placement, restarted from it turned about the
+        overlap by ``TomographicParams.near_rival_turns`` cells either way,
+        for its turn to count as held when the curvature holds it weakly
+        (:func:`merging.evidence.verdict.turn_is_held`): half the accuracy a
+        merge is asked for (2 cells). On ten seeds of the low-overlap suite
+        (``scripts/bench_real_maps.py low-overlap``, 3000 window pairs), 339
+        of the 359 right placements asked came back within a cell (median
+        0.12); of the 16 wrong ones asked, five did, all 2.3-2.8 cells off
+        but one, and were refused after (by ``reverse_gap_cells`` and the
+        mirror check).
+    turn_return_fit : float
+        The fit quality (agreeing minus weighted conflicting walls, as the
+        fit factor counts it) a placement needs for the refinement's coming
+        back to hold its turn: a sharp optimum vouches for the truth only
+        where nearly every wall meets its twin. Right placements held that
+        way on those seeds fit at 0.983 or better; one 850 cells off, its
+        optimum as sharp, at 0.88.
+    reverse_gap_cells : float
+        For a close fit the curvature holds loosely (its constraint factor
+        below ``pin_below``): how far (cells RMS over map 2's walls)
+        refining the other way round, map 1 onto map 2, may land from it
+        before the confidence halves (``merging.tomographic.search._both_ways``):
+        the accuracy a merge is asked for. The two directions meet each
+        other map's rasterised walls, so their answers straddle the truth
+        and the placement reported lies halfway. On those ten seeds 681
+        right placements were checked (median 0.23 cells apart, 90 % within
+        0.74, three beyond 2) and seven wrong ones (0.7-4.3); before the
+        check, five placements 2.3-2.8 cells off were accepted.
+    reverse_gap_width : float
+        Width (cells) of that logistic: a quarter of a cell, so that a
+        reverse landing a cell and a half away costs a tenth of the
+        confidence.
     max_lever : float
         Largest lever arm (:func:`merging.evidence.pinning.lever_arm`: how
         many times farther map 2's walls lie from the overlap than the
@@ -416,6 +450,10 @@ class ConfidenceParams:
     pin_below: float = 0.9
     pin_scale: float = 40.0
     turn_scale: float = 15.0
+    turn_return_cells: float = 1.0
+    turn_return_fit: float = 0.95
+    reverse_gap_cells: float = 2.0
+    reverse_gap_width: float = 0.25
     max_lever: float = 12.0
     accept: float = 0.6
 
@@ -432,9 +470,12 @@ class ConfidenceParams:
                 "pin_directions",
                 "pin_scale",
                 "turn_scale",
+                "turn_return_cells",
+                "reverse_gap_cells",
+                "reverse_gap_width",
                 "max_lever",
             ),
-            fractions=("pin_below", "accept"),
+            fractions=("pin_below", "turn_return_fit", "accept"),
         )
 
 

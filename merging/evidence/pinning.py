@@ -24,6 +24,9 @@ walls by two cells moves the overlap's own walls by a fraction of a cell,
 which counting cells within one of a wall cannot see. How far out map 2's
 walls reach from the overlap is :func:`lever_arm`: a turn too small for the
 refinement to resolve at the overlap moves them that many times as much.
+Where the curvature is flat the refinement is asked directly: restarted from
+the placement turned a little either way, does it come back
+(:func:`merging.evidence.verdict.turn_is_held`)?
 """
 
 from __future__ import annotations

@@ -43,8 +43,14 @@ from merging.evidence.robust import (
     robust_factors,
     tolerant_fit,
 )
-from merging.evidence.verify import PreparedMap, Verification, confidence_factors, verify
-from merging.params import TomographicParams
+from merging.evidence.verify import (
+    PreparedMap,
+    Verification,
+    confidence_factors,
+    pinned_factors,
+    verify,
+)
+from merging.params import ConfidenceParams, TomographicParams
 from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
 
 CLOSE_FACTORS = ("fit", "support", "distinct", "constraint", "space")
@@ -88,6 +94,14 @@ class Verdict:
         Whether the maps bend against each other where they overlap: the
         robust evidence (a large overlap whose walls meet within a few
         cells) vouches for the placement, and more than the close fit does.
+    loose : bool
+        Whether the close fit vouches for a placement its curvature holds
+        loosely: the constraint factor of the curvature alone is below
+        ``ConfidenceParams.pin_below`` (the other factors carried it, or
+        sliding and turning were shown to cost, :func:`turn_is_held`). Where
+        the overlap holds a placement that loosely, the rasterised walls may
+        pull it a cell or two aside; the default method checks it by
+        refining the other way round.
     """
 
     confidence: float
@@ -95,6 +109,7 @@ class Verdict:
     reason: str
     evidence: dict[str, float]
     bent: bool = False
+    loose: bool = False
 
 
 def judge(
@@ -107,6 +122,7 @@ def judge(
     mirror: MirrorSearch | None = None,
     *,
     far_runner_up: tuple[Verification, NDArray[np.float64]] | None = None,
+    turn_returns: Callable[[], float] | None = None,
 ) -> Verdict:
     """Judge ``best`` (map 2 cells -> map 1 cells) against the best different placement.
 
@@ -122,6 +138,12 @@ def judge(
     overlap (:func:`merging.evidence.mirror.mirror_share`), counted as that way
     counts it: the close fit at the tolerance it used, conflicts weighing
     against; the robust evidence as walls met within its tolerance.
+    ``turn_returns``, when given, says how far (cells RMS over map 2's
+    walls) the narrow refinement ends from ``best`` when restarted from
+    ``best`` turned a little about the overlap; it is called only for a
+    placement held against sliding that only a weak turn keeps from being
+    vouched for, and within ``ConfidenceParams.turn_return_cells`` the turn
+    counts as held (:func:`turn_is_held`).
     """
     check = verify(first, second, best, params=params.verify)
     strength = constraint_strength(smoothed, second, best, local=True, params=params.gauss_newton)
@@ -129,6 +151,7 @@ def judge(
     fit_quality = check.quality
     fit_tolerance: int | None = None
     factors = confidence_factors(check, other, strength=strength, params=params.confidence)
+    curvature = factors[3]
     if (
         np.prod(factors) < params.confidence.accept
         and check.agreeing >= params.confidence.tolerant_support
@@ -143,6 +166,7 @@ def judge(
             check, other, strength=strength, params=params.confidence, fit_quality=fit_quality
         )
     pinned: tuple[float, float] | None = None
+    returned: dict[str, float] = {}
     # Sliding and turning bear on the constraint factor alone: measure them only when
     # the other factors leave the placement a chance.
     unconstrained = float(np.prod(factors)) / max(factors[3], 1e-12)
@@ -164,6 +188,25 @@ def judge(
             fit_quality=fit_quality,
             pinned=pinned,
         )
+        turn_held = turn_returns is not None and turn_is_held(
+            factors,
+            unconstrained,
+            pinned,
+            turn_returns,
+            params.confidence,
+            returned,
+            fit_quality=fit_quality,
+        )
+        if turn_held:
+            factors = confidence_factors(
+                check,
+                other,
+                strength=strength,
+                params=params.confidence,
+                fit_quality=fit_quality,
+                pinned=pinned,
+                turn_held=True,
+            )
     close = float(np.prod(factors))
     twins = _Twins(mirror)
     evidence: dict[str, float] = {
@@ -178,6 +221,7 @@ def judge(
     }
     if pinned is not None:
         evidence["slide_cost_cells"], evidence["turning_strength"] = pinned
+    evidence.update(returned)
     evidence.update(
         {f"close_{name}": value for name, value in zip(CLOSE_FACTORS, factors, strict=True)}
     )
@@ -244,7 +288,50 @@ def judge(
     else:
         reason = refusal_reason(factors, robust_scores, evidence)
     bent = robust >= accept and robust > close
-    return Verdict(value, accepted, reason, evidence, bent)
+    loose = accepted and not bent and close >= accept and curvature < params.confidence.pin_below
+    return Verdict(value, accepted, reason, evidence, bent, loose)
+
+
+def turn_is_held(
+    factors: tuple[float, ...],
+    unconstrained: float,
+    pinned: tuple[float, float],
+    turn_returns: Callable[[], float],
+    params: ConfidenceParams,
+    measures: dict[str, float],
+    *,
+    fit_quality: float,
+) -> bool:
+    """Whether the refinement holds a placement's turn that its curvature holds weakly.
+
+    A small overlap turns about itself: the curvature of the narrow fields
+    (``turning_strength``) is flat there, though the placement may be the
+    truth to a tenth of a cell. The refinement is asked instead: restarted
+    from the placement turned by the accuracy a merge is asked for and
+    twice that, either way, does it come back (``turn_returns()``, the
+    farthest end, within ``params.turn_return_cells``)? Asked only when it
+    can change the verdict: the factors (the close fit's five, with
+    ``pinned``, the ``(slide, turn)`` of :func:`merging.evidence.verify.confidence_factors`)
+    fall short of ``params.accept``, the turn is what holds the constraint
+    back, with the slide's factor alone they would pass (``unconstrained``
+    is their product without the constraint), and the walls meet closely
+    (``fit_quality``, as the fit factor counts it, at least
+    ``params.turn_return_fit``): that the refinement comes back says its
+    optimum is sharp, which vouches for the truth only where nearly every
+    wall meets its twin. Adds the farthest end, as ``turn_return_cells``,
+    to ``measures`` when asked.
+    """
+    slid, turned = pinned_factors(pinned, params)
+    if (
+        np.prod(factors) >= params.accept
+        or turned >= slid
+        or unconstrained * slid < params.accept
+        or fit_quality < params.turn_return_fit
+    ):
+        return False
+    returned = turn_returns()
+    measures["turn_return_cells"] = returned
+    return returned <= params.turn_return_cells
 
 
 class _Twins:
@@ -347,7 +434,9 @@ def refusal_reason(
     first (a rival placement is no news for a placement that explains
     little: two maps of different buildings have many such); then a rival
     placement about as good means ambiguity, a weak constraint a single
-    wall or corridor.
+    wall or corridor, or, when the refinement was restarted turned a little
+    (``turn_return_cells`` in ``evidence``) and did not come back, an overlap
+    too short to hold the turn (:func:`turn_reason`).
     """
     values = dict(zip(CLOSE_FACTORS, close, strict=True))
     failing = [name for name in REASON_ORDER if values[name] < 0.5]
@@ -371,6 +460,9 @@ def refusal_reason(
             evidence.get(f"{competitor}runner_up_distance_cells", 0.0),
             evidence.get(f"{competitor}runner_up_turn_deg", 0.0),
         )
+    returned = evidence.get("turn_return_cells", float("inf"))
+    if cause == "constraint" and np.isfinite(returned):
+        return turn_reason(returned)
     if cause == "fit" and few_walls:
         return (
             "the walls do not line up: too few of them meet, even allowing a few cells for "
@@ -389,6 +481,30 @@ def refusal_reason(
         "space": "the maps share walls but no open space: they may show two neighbouring "
         "rooms side by side",
     }[cause]
+
+
+def turn_reason(returned: float) -> str:
+    """Why a placement held against sliding is refused for its turn: restarted turned a
+    little about the overlap, the refinement ended ``returned`` cells (RMS) away."""
+    return (
+        "the overlap is too short to hold map 2's turn: started turned a little about "
+        f"it, the fit settles {returned:.1f} cells away"
+    )
+
+
+def reverse_reason(gap: float, confidence: float, params: ConfidenceParams) -> str:
+    """Why a placement is refused when refining map 1 onto map 2 instead lands ``gap``
+    cells (RMS over map 2's walls) from it, leaving it ``confidence``."""
+    if gap > params.reverse_gap_cells:
+        return (
+            "the overlap does not hold map 2 to the accuracy asked: refined the other way "
+            f"round (map 1 onto map 2), the placement lands {gap:.1f} cells away"
+        )
+    return (
+        f"only just short of sure (confidence {confidence:.3f}, {params.accept:g} asked): "
+        f"refined the other way round (map 1 onto map 2), the placement lands {gap:.1f} "
+        "cells away"
+    )
 
 
 def ambiguity_reason(distance: float, turn_deg: float) -> str:

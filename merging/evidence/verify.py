@@ -399,6 +399,7 @@ def confidence_factors(
     params: ConfidenceParams = DEFAULT_CONFIDENCE,
     fit_quality: float | None = None,
     pinned: tuple[float, float] | None = None,
+    turn_held: bool = False,
 ) -> tuple[float, float, float, float, float]:
     """The five factors of :func:`confidence`: fit, support, distinctiveness, constraint, space.
 
@@ -408,7 +409,10 @@ def confidence_factors(
     sliding the placement a little (:func:`merging.evidence.pinning.pinning`) and the
     strength holding its turn (:func:`merging.evidence.refine.turning_strength`); the
     constraint factor is then the larger of the curvature's and the smaller
-    of ``1 - exp(-slide / pin_scale)`` and ``1 - exp(-turn / turn_scale)``.
+    of the two :func:`pinned_factors`. ``turn_held`` says the turn was shown
+    to be held another way (the refinement, restarted turned a little,
+    comes back: :func:`merging.evidence.verdict.judge`), so the slide's
+    factor alone stands for the pinning.
     """
     quality = best.quality if fit_quality is None else fit_quality
     fit = expit((quality - params.fit_centre) / params.fit_width)
@@ -421,11 +425,22 @@ def confidence_factors(
         1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / params.strength_scale)
     )
     if pinned is not None:
-        slide, turn = pinned
-        held = min(
-            1.0 - np.exp(-max(slide, 0.0) / params.pin_scale),
-            1.0 - np.exp(-max(turn, 0.0) / params.turn_scale),
-        )
-        constrained = max(constrained, held)
+        slid, turned = pinned_factors(pinned, params)
+        constrained = max(constrained, slid if turn_held else min(slid, turned))
     shared = 1.0 - np.exp(-best.shared_space / params.shared_space_scale)
     return (float(fit), float(support), float(distinct), float(constrained), float(shared))
+
+
+def pinned_factors(
+    pinned: tuple[float, float], params: ConfidenceParams = DEFAULT_CONFIDENCE
+) -> tuple[float, float]:
+    """How firmly a placement is held against sliding and against turning, each in ``[0, 1]``.
+
+    ``pinned`` is ``(slide, turn)`` as :func:`confidence_factors` takes it:
+    ``1 - exp(-slide / pin_scale)`` and ``1 - exp(-turn / turn_scale)``.
+    """
+    slide, turn = pinned
+    return (
+        float(1.0 - np.exp(-max(slide, 0.0) / params.pin_scale)),
+        float(1.0 - np.exp(-max(turn, 0.0) / params.turn_scale)),
+    )

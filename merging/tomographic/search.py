@@ -68,7 +68,11 @@ Steps
    are accepted, and a refusal says why. A close fit about to be accepted is
    turned about the overlap and refined again: an optimum of its own more
    than 2 cells away that explains about as much makes it ambiguous
-   (``_turned_rival``).
+   (``_turned_rival``); a turn the curvature holds weakly counts as held when
+   those restarts all come back. One the curvature holds loosely is refined
+   the other way round too, map 1 onto map 2: the two answers straddle the
+   truth, their distance costs confidence, and the result lies halfway
+   (``_both_ways``).
 6. Mirror check, for a placement step 5 would accept: steps 1-4 again for
    map 2's part of the overlap seen in a mirror, on map 1's cells around
    the overlap; if it explains the same overlap about as well,
@@ -96,7 +100,7 @@ from merging.evaluation.metrics import as_matrix
 from merging.evidence.mirror import MirrorCandidates, mirrored_part, twin_ground
 from merging.evidence.pinning import meeting_walls
 from merging.evidence.refine import SmoothedMap, refine_transform
-from merging.evidence.verdict import MirrorSearch, ambiguity_reason, judge
+from merging.evidence.verdict import MirrorSearch, ambiguity_reason, judge, reverse_reason
 from merging.evidence.verify import PreparedMap, Verification, prepare_map, verify
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, RefineStage, TomographicParams
@@ -551,6 +555,7 @@ def _judged(
     """
     clock = time.perf_counter()
     mirror = _mirror_search(maps, best, timings) if mirror_check else None
+    restarts = _TurnedRestarts(maps, best)
     runner_up, far_runner_up = runners_up
     verdict = judge(
         maps.first,
@@ -561,16 +566,27 @@ def _judged(
         maps.params,
         mirror,
         far_runner_up=far_runner_up,
+        turn_returns=restarts.farthest,
     )
     evidence = verdict.evidence
     confidence, accepted, reason = verdict.confidence, verdict.accepted, verdict.reason
-    if compromise and verdict.accepted and verdict.bent:
+    if verdict.accepted and verdict.loose:
+        # Held loosely: the rasterised walls may pull it aside.
+        between, factor, gap = _both_ways(maps, best)
+        evidence = {**evidence, "reverse_gap_cells": gap, "close_reverse": factor}
+        confidence *= factor
+        accepted = confidence >= maps.params.confidence.accept
+        if accepted:
+            best = between
+        else:
+            reason = reverse_reason(gap, confidence, maps.params.confidence)
+    if compromise and accepted and verdict.bent:
         best, moved = _compromise(maps, best)
         evidence = {**evidence, "compromise_moved_cells": moved}
-    elif compromise and verdict.accepted:
-        rival = _turned_rival(maps, best)
+    elif compromise and accepted:
+        rival = _turned_rival(maps, restarts.best, restarts)
         if rival is not None:
-            factor, measures = _rival_factor(maps, best, rival)
+            factor, measures = _rival_factor(maps, restarts.best, rival)
             evidence = {**evidence, **measures}
             confidence *= factor
             accepted = confidence >= maps.params.confidence.accept
@@ -591,45 +607,133 @@ def _judged(
     )
 
 
-def _turned_rival(maps: _Maps, best: NDArray[np.float64]) -> Candidate | None:
+class _TurnedRestarts:
+    """The narrow refinement restarted from a placement turned a little about its overlap.
+
+    A small overlap holds map 2's far walls by a lever: a turn moving them
+    two cells moves the overlap's walls by a fraction of one, which counting
+    walls cell by cell cannot see. Whether the overlap holds the turn is
+    asked of the refinement itself: ``best`` is turned about the centroid
+    of map 2's walls that meet map 1's, by the angles moving all of map 2's
+    walls ``TomographicParams.near_rival_turns`` cells RMS either way, and
+    each start is refined on the narrow fields to the optimum it leads to.
+    Run once, when first asked, for both uses: the turn is held when every
+    start comes back (:meth:`farthest`, :func:`merging.evidence.verdict.judge`),
+    and an optimum of its own elsewhere is a rival (:func:`_turned_rival`).
+    """
+
+    __slots__ = ("_found", "_maps", "best")
+
+    def __init__(self, maps: _Maps, best: NDArray[np.float64]):
+        self._maps, self.best = maps, best
+        self._found: list[Candidate] | None = None
+
+    def found(self) -> list[Candidate]:
+        """The optimum each turned start led to (none when no walls meet)."""
+        if self._found is None:
+            self._found = self._restart()
+        return self._found
+
+    def farthest(self) -> float:
+        """How far (cells RMS over map 2's walls) the farthest restart ended from ``best``;
+        ``inf`` when no walls meet to turn about."""
+        found = self.found()
+        if not found:
+            return float("inf")
+        points = self._maps.second.points
+        return max(_rms_between(matrix, self.best, points) for _, matrix in found)
+
+    def _restart(self) -> list[Candidate]:
+        maps, best = self._maps, self.best
+        params = maps.params
+        landed = apply_transform(best, maps.second.points)
+        meeting = meeting_walls(maps.first, landed)
+        if not meeting.any():
+            return []
+        pivot = landed[meeting].mean(axis=0)
+        radius = float(np.sqrt(np.mean(np.sum((landed - pivot) ** 2, axis=1))))
+        if radius <= 0.0:
+            return []
+        found: list[Candidate] = []
+        for moved in params.near_rival_turns:
+            for sign in (-1.0, 1.0):
+                turn = (
+                    translation_matrix(pivot)
+                    @ rigid_matrix(0.0, 0.0, sign * moved / radius)
+                    @ translation_matrix(-pivot)
+                )
+                start = (maps.verify(turn @ best), turn @ best)
+                for stage in params.stages[1:]:
+                    start = maps.refine(start, stage, keep=False)
+                found.append(start)
+        return found
+
+
+def _turned_rival(
+    maps: _Maps, best: NDArray[np.float64], restarts: _TurnedRestarts | None = None
+) -> Candidate | None:
     """The placement explaining the most that refining ``best`` turned about the overlap
     finds farther than ``TomographicParams.near_rival_cells`` from it; None if none.
 
-    A small overlap holds map 2's far walls by a lever: a turn moving them
-    two cells moves the overlap's walls by a fraction of one, and two
-    optima of the narrow fields, one of them the truth, may lie that far
-    apart and explain about as much. ``best`` is turned about the centroid
-    of map 2's walls that meet map 1's, by the angles moving all of map 2's
-    walls ``near_rival_turns`` cells RMS either way, and each start refined
-    on the narrow fields to the optimum it leads to: an optimum of its own
-    farther than ``near_rival_cells``, not the start kept, is a rival.
+    Two optima of the narrow fields, one of them the truth, may lie a couple
+    of cells apart at map 2's far walls and explain about as much
+    (:class:`_TurnedRestarts`, whose runs ``restarts`` may already hold): an
+    optimum a turned start leads to farther than ``near_rival_cells``, not
+    the start kept, is a rival.
+    """
+    if restarts is None:
+        restarts = _TurnedRestarts(maps, best)
+    points = maps.second.points
+    rival: Candidate | None = None
+    for found in restarts.found():
+        if _rms_between(found[1], best, points) <= maps.params.near_rival_cells:
+            continue
+        if rival is None or found[0].net > rival[0].net:
+            rival = found
+    return rival
+
+
+def _both_ways(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, float]:
+    """``best`` checked by refining the other way round: the placement halfway between the
+    two, the factor the confidence takes, and how far apart they were (cells RMS).
+
+    The refinement carries one map's walls down the other's smoothed walls,
+    so where the overlap is small a turned map's rasterised walls (a
+    staircase along a slanted wall) can pull it a cell or two aside, the
+    farther the longer map 2's lever. Refining map 1 onto map 2 from the
+    inverse of ``best`` on the same narrow fields meets the other map's
+    staircase instead: the two answers straddle the truth, and how far
+    apart they land map 2's walls says how well the overlap holds the
+    placement. The factor is the logistic of ``ConfidenceParams.reverse_gap_cells``
+    (the accuracy a merge is asked for) minus that distance, ``reverse_gap_width``
+    wide; the placement reported lays map 2's walls halfway between.
     """
     params = maps.params
+    reverse = _Maps(maps.second, maps.first, params)
+    start = np.asarray(np.linalg.inv(best), dtype=np.float64)
+    found = (reverse.verify(start), start)
+    for stage in params.stages[1:]:
+        found = reverse.refine(found, stage, keep=False)
+    other = np.asarray(np.linalg.inv(found[1]), dtype=np.float64)
     points = maps.second.points
-    landed = apply_transform(best, points)
-    meeting = meeting_walls(maps.first, landed)
-    if not meeting.any():
-        return None
-    pivot = landed[meeting].mean(axis=0)
-    radius = float(np.sqrt(np.mean(np.sum((landed - pivot) ** 2, axis=1))))
-    if radius <= 0.0:
-        return None
-    rival: Candidate | None = None
-    for moved in params.near_rival_turns:
-        for sign in (-1.0, 1.0):
-            turn = (
-                translation_matrix(pivot)
-                @ rigid_matrix(0.0, 0.0, sign * moved / radius)
-                @ translation_matrix(-pivot)
-            )
-            found = (maps.verify(turn @ best), turn @ best)
-            for stage in params.stages[1:]:
-                found = maps.refine(found, stage, keep=False)
-            if _rms_between(found[1], best, points) <= params.near_rival_cells:
-                continue
-            if rival is None or found[0].net > rival[0].net:
-                rival = found
-    return rival
+    gap = _rms_between(other, best, points)
+    confidence = params.confidence
+    factor = float(expit((confidence.reverse_gap_cells - gap) / confidence.reverse_gap_width))
+    return halfway(best, other, points), factor, gap
+
+
+def halfway(
+    a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The rigid transform halfway between ``a`` and ``b``: turned by the mean of their
+    angles, and laying the centroid of ``points`` halfway between where they lay it."""
+    first, second = matrix_to_pose(a)[2], matrix_to_pose(b)[2]
+    angle = float(first + wrap_angle(second - first) / 2.0)
+    centre = points.mean(axis=0) if len(points) else np.zeros(2)
+    target = (apply_transform(a, centre[None, :]) + apply_transform(b, centre[None, :]))[0] / 2.0
+    turned = rigid_matrix(0.0, 0.0, angle)
+    shift = target - turned[:2, :2] @ centre
+    return rigid_matrix(float(shift[0]), float(shift[1]), angle)
 
 
 def _rival_factor(

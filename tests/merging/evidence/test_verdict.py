@@ -1,10 +1,12 @@
-"""Refusal reasons: which failing factor a refusal names, in words."""
+"""Refusal reasons: which failing factor a refusal names, in words; when a weak turn is held."""
 
 from __future__ import annotations
 
 import pytest
 
-from merging.evidence.verdict import CLOSE_FACTORS, refusal_reason
+from merging.evidence.verdict import CLOSE_FACTORS, refusal_reason, reverse_reason, turn_is_held
+from merging.evidence.verify import Verification, confidence_factors, pinned_factors
+from merging.params import DEFAULT_PARAMS
 
 PASS, FAIL = 0.9, 0.1
 """Factor values that pass and fail (a factor passes at 0.5)."""
@@ -52,3 +54,62 @@ def test_turns_of_several_degrees_are_plural() -> None:
     evidence = {"runner_up_distance_cells": 555.0, "runner_up_turn_deg": 90.0}
     reason = refusal_reason(close(distinct=FAIL), {}, evidence)
     assert "555 cells away, turned 90 degrees from it" in reason
+
+
+def test_a_turn_the_refinement_does_not_come_back_from_is_named() -> None:
+    words = refusal_reason(close(constraint=FAIL), {}, {"turn_return_cells": 3.04})
+    assert words.startswith("the overlap is too short to hold map 2's turn")
+    assert "3.0 cells away" in words
+
+
+# The close fit's factors with the constraint last but one: (fit, support, distinct,
+# constraint, space). A slide costing 120 cells gives 0.95; a turn of 3, 0.18.
+PINNED = (120.0, 3.0)
+HELD_BACK = (0.96, 1.0, 1.0, 0.18, 1.0)
+
+
+def _never() -> float:
+    raise AssertionError("the turn was asked about though it cannot change the verdict")
+
+
+def test_the_turn_is_asked_about_only_when_it_alone_holds_the_verdict_back() -> None:
+    params = DEFAULT_PARAMS.confidence
+    unconstrained = 0.96
+    # Already passing, or the slide the weaker hold, or too weak without the turn anyway.
+    exact = {"fit_quality": 1.0}
+    assert not turn_is_held((0.9, 1, 1, 0.9, 1), unconstrained, PINNED, _never, params, {}, **exact)
+    assert not turn_is_held(HELD_BACK, unconstrained, (5.0, 30.0), _never, params, {}, **exact)
+    assert not turn_is_held(HELD_BACK, 0.5, PINNED, _never, params, {}, **exact)
+    # ... or the walls meet too loosely for a sharp optimum to vouch for the truth.
+    loose = {"fit_quality": 0.9}
+    assert not turn_is_held(HELD_BACK, unconstrained, PINNED, _never, params, {}, **loose)
+
+
+@pytest.mark.parametrize(("returned", "held"), [(0.2, True), (1.5, False), (float("inf"), False)])
+def test_the_turn_is_held_when_the_refinement_comes_back(returned: float, held: bool) -> None:
+    measures: dict[str, float] = {}
+    params = DEFAULT_PARAMS.confidence
+    asked = turn_is_held(HELD_BACK, 0.96, PINNED, lambda: returned, params, measures, fit_quality=1)
+    assert asked is held
+    assert measures == {"turn_return_cells": returned}
+
+
+def test_a_held_turn_leaves_the_slide_to_pin_the_placement() -> None:
+    params = DEFAULT_PARAMS.confidence
+    check = Verification(agreement=1.0, conflict=0.0, overlap=2000.0, agreeing=2000.0,
+                         shared_space=5000.0)  # fmt: skip
+    slid, turned = pinned_factors(PINNED, params)
+    assert turned < 0.5 < slid
+    loose = confidence_factors(check, strength=0.5, params=params, pinned=PINNED)
+    held = confidence_factors(check, strength=0.5, params=params, pinned=PINNED, turn_held=True)
+    assert loose[3] == pytest.approx(turned)
+    assert held[3] == pytest.approx(slid)
+
+
+def test_a_reverse_refinement_far_away_or_a_near_miss_says_which() -> None:
+    params = DEFAULT_PARAMS.confidence
+    far = reverse_reason(2.6, 0.4, params)
+    assert far.startswith("the overlap does not hold map 2 to the accuracy asked")
+    assert "2.6 cells away" in far
+    near = reverse_reason(0.8, 0.596, params)
+    assert near.startswith("only just short of sure (confidence 0.596, 0.6 asked)")
