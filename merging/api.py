@@ -150,7 +150,10 @@ def estimate_transform(
     if both_grids:
         (cells1, to_search1), (cells2, to_search2) = _common_resolution(map1, map2)  # type: ignore[arg-type]
     generator = as_generator(rng)
-    counts = (int(occupied_mask(cells1).sum()), int(occupied_mask(cells2).sum()))
+    counts = (
+        int(np.count_nonzero(occupied_mask(cells1))),
+        int(np.count_nonzero(occupied_mask(cells2))),
+    )
     if min(counts) < MIN_OCCUPIED_CELLS:
         result = MergeResult(
             matrix=np.eye(3),
@@ -164,7 +167,8 @@ def estimate_transform(
         result = _METHODS[method](cells1, cells2, rng=generator, **options)
     timings = dict(result.timings)
     timings["total"] = time.perf_counter() - start
-    matrix = np.linalg.inv(to_search1) @ result.matrix @ to_search2
+    from_search1 = np.linalg.inv(to_search1)
+    matrix = from_search1 @ result.matrix @ to_search2
     metres = cells_to_metres(matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
     return MergeResult(
         matrix=matrix,
@@ -173,8 +177,7 @@ def estimate_transform(
         method=method,
         matrix_metres=metres,
         hypotheses=tuple(
-            replace(h, matrix=np.linalg.inv(to_search1) @ h.matrix @ to_search2)
-            for h in result.hypotheses
+            replace(h, matrix=from_search1 @ h.matrix @ to_search2) for h in result.hypotheses
         ),
         timings=timings,
         reason=result.reason,

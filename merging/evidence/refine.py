@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -71,7 +72,15 @@ class SmoothedMap:
         Share of the map above which a local field is the whole map's.
     """
 
-    __slots__ = ("_downsample_from", "_fields", "_shape", "_walls", "_whole_share")
+    __slots__ = (
+        "_boxed",
+        "_curvature",
+        "_downsample_from",
+        "_fields",
+        "_shape",
+        "_walls",
+        "_whole_share",
+    )
 
     def __init__(
         self,
@@ -86,6 +95,10 @@ class SmoothedMap:
         self._downsample_from = downsample_from_sigma
         self._whole_share = whole_field_share
         self._fields: dict[float, Field] = {}
+        # The latest fields of boxes, oldest first (at most BOXED_FIELDS_KEPT).
+        self._boxed: dict[tuple[float, tuple[int, int, int, int]], Field] = {}
+        # The last curvature_matrix call: (map 2, matrix, local, params) and its answer.
+        self._curvature: tuple[Any, ...] | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -96,10 +109,12 @@ class SmoothedMap:
         """The field at width ``sigma`` (cells), over all of map 1 or over ``box``.
 
         ``box = (x_lo, y_lo, x_hi, y_hi)`` in cells (exclusive upper bounds)
-        computes the field of that part only, uncached: cheaper when only
-        the overlap matters. A box covering more than ``whole_field_share``
-        of the map takes the whole map's field instead, computed once for
-        every candidate and the curvature.
+        computes the field of that part only: cheaper when only the overlap
+        matters. The latest :data:`BOXED_FIELDS_KEPT` of those are kept, as a
+        placement that moved less than a cell asks for the same box again
+        (a refined candidate's curvature, say). A box covering more than
+        ``whole_field_share`` of the map takes the whole map's field
+        instead, computed once for every candidate and the curvature.
         """
         if box is not None:
             x_lo, y_lo, x_hi, y_hi = box
@@ -107,6 +122,10 @@ class SmoothedMap:
                 box = None
         if box is None and sigma in self._fields:
             return self._fields[sigma]
+        if box is not None:
+            key = (sigma, (int(box[0]), int(box[1]), int(box[2]), int(box[3])))
+            if key in self._boxed:
+                return self._boxed[key]
         scale = field_scale(sigma, self._downsample_from)
         x_lo, y_lo, x_hi, y_hi = box if box is not None else (0, 0, self._shape[1], self._shape[0])
         rows, cols = (int(np.ceil(n / scale)) for n in (y_hi - y_lo, x_hi - x_lo))
@@ -122,8 +141,16 @@ class SmoothedMap:
         field = Field(image, scale, (x_lo, y_lo), sigma)
         if box is None:
             self._fields[sigma] = field
+        else:
+            if len(self._boxed) >= BOXED_FIELDS_KEPT:
+                del self._boxed[next(iter(self._boxed))]
+            self._boxed[key] = field
         return field
 
+
+BOXED_FIELDS_KEPT = 8
+"""Fields of boxes a smoothed map keeps: on the low-overlap windows a fifth of the boxed
+fields asked for had been asked for before, most of them a few calls earlier."""
 
 WORK_SPACE_CELLS = 1 << 20
 """Field pixels up to which a thread keeps the blur's work space (17 MB) for the next field."""
@@ -349,7 +376,32 @@ def curvature_matrix(
 ) -> tuple[NDArray[np.float64] | None, int]:
     """The curvature of :func:`constraint_strength` (whitened, coordinates ``(x, y, turn)``,
     per point used) and the stride of map 2's points it used; None where map 2 lands off
-    a local field."""
+    a local field.
+
+    The answer of the last call on ``smoothed`` is kept (read-only): the verdict asks
+    for the curvature at one placement twice, for the constraint and the turn.
+    """
+    matrix = np.ascontiguousarray(matrix, dtype=np.float64)
+    key = matrix.tobytes()  # to the bit
+    kept = smoothed._curvature
+    if kept is not None and kept[0] is second and kept[1:4] == (key, local, params):
+        return kept[4], kept[5]
+    curvature, stride = _curvature_matrix(smoothed, second, matrix, local=local, params=params)
+    if curvature is not None:
+        curvature.setflags(write=False)
+    smoothed._curvature = (second, key, local, params, curvature, stride)
+    return curvature, stride
+
+
+def _curvature_matrix(
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    *,
+    local: bool,
+    params: GaussNewtonParams,
+) -> tuple[NDArray[np.float64] | None, int]:
+    """:func:`curvature_matrix`, computed."""
     stride = max(1, int(np.ceil(len(second.points) / params.curvature_points)))
     points = second.points[::stride]
     sigma = params.curvature_sigma

@@ -56,6 +56,9 @@ class PreparedMap:
         ``(x, y)`` of at most ``VerifyParams.max_open_points`` clear free cells.
     open_weight : float
         Clear free cells each of those stands for.
+    landing : (rows, cols) uint8 ndarray
+        What a point landing on each cell counts as, one bit each (see
+        :func:`landing_codes`): one lookup per point instead of three.
     """
 
     cells: NDArray[np.int8]
@@ -66,6 +69,7 @@ class PreparedMap:
     clear_free: NDArray[np.bool_]
     open_points: NDArray[np.float64]
     open_weight: float
+    landing: NDArray[np.uint8]
     _tolerant: dict[tuple[int, int], tuple[NDArray[np.bool_], NDArray[np.bool_]]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -143,9 +147,33 @@ def prepare_map(cells: NDArray[np.int8], *, params: VerifyParams = DEFAULT_VERIF
     blocked = dilate(near, params.conflict_clearance)  # grown by near_radius + clearance
     clear_free = free_mask(cells) & ~blocked
     open_points, open_weight = _spread(clear_free, params.max_open_points)
+    landing = landing_codes(cells, near, clear_free)
     return PreparedMap(
-        cells, all_points, points, weight, near, clear_free, open_points, open_weight
+        cells, all_points, points, weight, near, clear_free, open_points, open_weight, landing
     )
+
+
+KNOWN_BIT, NEAR_BIT, CLEAR_BIT = 1, 2, 4
+"""Bits of :attr:`PreparedMap.landing`: a landing there counts as on a known cell (or
+next to a wall), next to a wall, and on clear free space."""
+
+
+@numba.njit(cache=True, nogil=True)
+def landing_codes(
+    cells: NDArray[np.int8], near_occupied: NDArray[np.bool_], clear_free: NDArray[np.bool_]
+) -> NDArray[np.uint8]:
+    """Each cell's :data:`KNOWN_BIT` (known or near a wall), :data:`NEAR_BIT` and
+    :data:`CLEAR_BIT`, as :func:`_count_landings` counts a point landing there."""
+    rows, cols = cells.shape
+    codes = np.empty((rows, cols), dtype=np.uint8)
+    for row in range(rows):
+        for col in range(cols):
+            codes[row, col] = (
+                (KNOWN_BIT | NEAR_BIT) * near_occupied[row, col]
+                | KNOWN_BIT * (cells[row, col] >= 0)
+                | CLEAR_BIT * clear_free[row, col]
+            )
+    return codes
 
 
 def _spread(mask: NDArray[np.bool_], count: int) -> tuple[NDArray[np.float64], float]:
@@ -234,14 +262,13 @@ def _count_landings(
     matrix: NDArray[np.float64],
     points: NDArray[np.float64],
     stride: int,
-    cells: NDArray[np.int8],
-    near_occupied: NDArray[np.bool_],
-    clear_free: NDArray[np.bool_],
+    landing: NDArray[np.uint8],
 ) -> tuple[float, float, float]:
     """Carry every ``stride``-th of ``points`` by ``matrix`` into a map's cells (nearest,
     rounding half to even); counts of those landing on known or near-wall cells, on
-    near-wall cells and on clear free cells. Cells off the map count in none."""
-    rows, cols = cells.shape
+    near-wall cells and on clear free cells (the bits of ``landing``, a map's
+    :attr:`PreparedMap.landing`). Cells off the map count in none."""
+    rows, cols = landing.shape
     a, b, c = matrix[0, 0], matrix[0, 1], matrix[0, 2]
     d, e, f = matrix[1, 0], matrix[1, 1], matrix[1, 2]
     known = near = clear = 0
@@ -251,13 +278,10 @@ def _count_landings(
         row = int(np.rint(px * d + py * e + f))
         if row < 0 or row >= rows or col < 0 or col >= cols:
             continue
-        if near_occupied[row, col]:
-            near += 1
-            known += 1
-        elif cells[row, col] >= 0:
-            known += 1
-        if clear_free[row, col]:
-            clear += 1
+        code = landing[row, col]
+        known += code & KNOWN_BIT
+        near += (code & NEAR_BIT) >> 1
+        clear += (code & CLEAR_BIT) >> 2
     return float(known), float(near), float(clear)
 
 
@@ -267,12 +291,7 @@ def _landing(
     """Counts of ``points`` moved by ``matrix`` on ``target``'s known, near-wall and
     clear-free cells (:func:`_count_landings`)."""
     return _count_landings(
-        np.ascontiguousarray(matrix, dtype=np.float64),
-        points,
-        stride,
-        target.cells,
-        target.near_occupied,
-        target.clear_free,
+        np.ascontiguousarray(matrix, dtype=np.float64), points, stride, target.landing
     )
 
 
@@ -283,34 +302,22 @@ def _both_ways(
     space: bool,
     first_points: NDArray[np.float64],
     first_open: NDArray[np.float64],
-    first_cells: NDArray[np.int8],
-    first_near: NDArray[np.bool_],
-    first_clear: NDArray[np.bool_],
+    first_landing: NDArray[np.uint8],
     second_points: NDArray[np.float64],
     second_open: NDArray[np.float64],
-    second_cells: NDArray[np.int8],
-    second_near: NDArray[np.bool_],
-    second_clear: NDArray[np.bool_],
+    second_landing: NDArray[np.uint8],
 ) -> tuple[float, float, float, float, float, float, float, float]:
     """The landings :func:`verify` counts, in one call: map 2's walls on map 1 (known,
     near, clear), map 1's on map 2, then map 2's and map 1's open points on the other's
     clear free space (0 unless ``space``). The inverse is numpy's (a solve against the
     identity)."""
     inverse = np.linalg.solve(matrix, np.eye(3)).astype(np.float64)
-    known_f, near_f, clear_f = _count_landings(
-        matrix, second_points, stride, first_cells, first_near, first_clear
-    )
-    known_b, near_b, clear_b = _count_landings(
-        inverse, first_points, stride, second_cells, second_near, second_clear
-    )
+    known_f, near_f, clear_f = _count_landings(matrix, second_points, stride, first_landing)
+    known_b, near_b, clear_b = _count_landings(inverse, first_points, stride, second_landing)
     open_f = open_b = 0.0
     if space:
-        _, _, open_f = _count_landings(
-            matrix, second_open, stride, first_cells, first_near, first_clear
-        )
-        _, _, open_b = _count_landings(
-            inverse, first_open, stride, second_cells, second_near, second_clear
-        )
+        _, _, open_f = _count_landings(matrix, second_open, stride, first_landing)
+        _, _, open_b = _count_landings(inverse, first_open, stride, second_landing)
     return known_f, near_f, clear_f, known_b, near_b, clear_b, open_f, open_b
 
 
@@ -337,14 +344,10 @@ def verify(
         space,
         first.points,
         first.open_points,
-        first.cells,
-        first.near_occupied,
-        first.clear_free,
+        first.landing,
         second.points,
         second.open_points,
-        second.cells,
-        second.near_occupied,
-        second.clear_free,
+        second.landing,
     )
     weight1, weight2 = first.point_weight * stride, second.point_weight * stride
     known = known_f * weight2 + known_b * weight1

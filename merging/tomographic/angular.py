@@ -64,11 +64,13 @@ def angular_spectrum(
     rows, cols = image.shape
     if rows > size or cols > size:
         raise ValueError(f"image of shape {image.shape} does not fit an FFT of size {size}")
-    magnitude = _upper_half_magnitude(np.asarray(image, dtype=np.float32), size)
     step = params.angle_step_deg
     n_angles = round(180.0 / step)
     alphas = np.deg2rad(np.arange(n_angles) * step)
     top = int(size // 2 * params.max_frequency_fraction)
+    # The samples lie below row ``top`` (their radius is less), and the bilinear
+    # interpolation reads at most one row further.
+    magnitude = _upper_half_magnitude(np.asarray(image, dtype=np.float32), size, rows=top + 1)
     radii = np.arange(params.min_frequency, top, dtype=np.float64)
     centre = size // 2
     # Sample |F| at (kx, ky) = k (cos α, sin α), ky >= 0 for α in [0°, 180°); the
@@ -83,7 +85,9 @@ def angular_spectrum(
     return AngularSpectrum(values.astype(np.float64), step)
 
 
-def _upper_half_magnitude(image: NDArray[np.float32], size: int) -> NDArray[np.float32]:
+def _upper_half_magnitude(
+    image: NDArray[np.float32], size: int, *, rows: int | None = None
+) -> NDArray[np.float32]:
     """``|F|`` of ``image`` zero-padded to ``size x size``, for ``ky >= 0`` only.
 
     Row ``ky`` holds vertical frequency ``ky`` (0 to ``size // 2``); column
@@ -91,13 +95,18 @@ def _upper_half_magnitude(image: NDArray[np.float32], size: int) -> NDArray[np.f
     real image is symmetric through the origin, so the half the angular
     spectrum samples (angles 0-180°) is all there is: the transform is real
     along the columns, which halves it, and only the image's columns are
-    transformed there (the padding's columns transform to zeros).
+    transformed there (the padding's columns transform to zeros). With
+    ``rows``, only the first ``rows`` rows (``ky < rows``) are transformed
+    and returned: the same values as those rows of the whole half.
     """
     columns = fft.rfft(image, n=size, axis=0)
+    if rows is not None:
+        columns = columns[:rows]
     frame = np.zeros((columns.shape[0], size), dtype=columns.dtype)
     frame[:, : image.shape[1]] = columns
     half = fft.fft(frame, axis=1, overwrite_x=True)
-    return np.abs(fft.fftshift(half, axes=1))
+    # The magnitudes, then the shift: it moves half the bytes of the complex values.
+    return fft.fftshift(np.abs(half), axes=1)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -10,9 +10,19 @@ from scipy import ndimage
 
 import merging
 from merging.evidence.blur import blur_walls
-from merging.evidence.refine import Field, SmoothedMap, _field_sample, refine_transform
+from merging.evidence.refine import (
+    BOXED_FIELDS_KEPT,
+    Field,
+    SmoothedMap,
+    _field_sample,
+    curvature_matrix,
+    refine_transform,
+)
 from merging.evidence.refine_kernels import normal_equations
 from merging.evidence.verify import (
+    CLEAR_BIT,
+    KNOWN_BIT,
+    NEAR_BIT,
     Verification,
     _landing,
     confidence,
@@ -24,6 +34,7 @@ from merging.evidence.verify import (
 from merging.grid import free_mask, occupied_mask
 from merging.params import (
     ConfidenceParams,
+    GaussNewtonParams,
     RefineStage,
     RobustParams,
     TomographicParams,
@@ -37,6 +48,7 @@ from merging.tomographic.angular import (
     rotation_correlation,
     rotation_peaks,
 )
+from merging.tomographic.correlate import _raise_to
 from merging.tomographic.search import refine_from
 from merging.transforms import apply_transform, cells_to_metres, rigid_matrix
 from tests.merging.builders import synthetic_building, turned
@@ -67,6 +79,8 @@ def test_upper_half_magnitude_is_that_of_the_full_transform(shape) -> None:
     half = _upper_half_magnitude(image, 256)
     assert half.shape == (129, 256)
     assert np.allclose(half[:128], full[128:], rtol=1e-4, atol=1e-3)  # Nyquist row aside
+    # The first rows alone, as the angular spectrum asks for them, are the same to the bit.
+    assert np.array_equal(_upper_half_magnitude(image, 256, rows=97), half[:97])
 
 
 @pytest.mark.parametrize("degrees", [17.0, 63.0, 121.0])
@@ -367,3 +381,73 @@ def test_compiled_landing_counts_match_numpy(building: np.ndarray) -> None:
         clear = first.clear_free[rows, cols]
         assert counts == (known.sum(), near.sum(), clear.sum())
         assert counts[1] > 0 and counts[0] > counts[1]
+
+
+def test_landing_codes_hold_each_mask_in_its_bit(building: np.ndarray) -> None:
+    prepared = prepare_map(building)
+    codes = prepared.landing
+    near = prepared.near_occupied
+    assert np.array_equal((codes & KNOWN_BIT) > 0, near | (prepared.cells >= 0))
+    assert np.array_equal((codes & NEAR_BIT) > 0, near)
+    assert np.array_equal((codes & CLEAR_BIT) > 0, prepared.clear_free)
+    assert codes.max() <= KNOWN_BIT | NEAR_BIT | CLEAR_BIT
+
+
+@pytest.mark.parametrize("power", [0.5, 0.4, 1.0])
+def test_significance_power_matches_numpy_to_the_bit(power: float) -> None:
+    # Positive float32 bit patterns from the smallest subnormal to the largest finite.
+    generator = np.random.default_rng(11)
+    bits = generator.integers(1, 0x7F800000, size=200_000, dtype=np.uint32)
+    values = np.concatenate([bits.view(np.float32), np.float32([4.0, 5.0, 1e6])])
+    raised = values.copy()
+    _raise_to(raised, power)
+    assert np.array_equal(raised.view(np.uint32), np.power(values, power).view(np.uint32))
+
+
+def test_curvature_is_kept_for_the_same_placement_only(building: np.ndarray) -> None:
+    first, second = prepare_map(building), prepare_map(turned(building, 20.0, (5, -3))[0])
+    smoothed = SmoothedMap(first.walls, first.shape)
+    matrix = rigid_matrix(12.0, -7.0, 0.35)
+    curvature, stride = curvature_matrix(smoothed, second, matrix, local=True)
+    again, _ = curvature_matrix(smoothed, second, matrix.copy(), local=True)
+    assert again is curvature and curvature is not None and not curvature.flags.writeable
+    fresh, fresh_stride = curvature_matrix(
+        SmoothedMap(first.walls, first.shape), second, matrix, local=True
+    )
+    assert fresh is not None and np.array_equal(curvature, fresh) and stride == fresh_stride
+    # Another placement, another map 2 or other settings are computed anew.
+    default, wider = GaussNewtonParams(), replace(GaussNewtonParams(), curvature_sigma=3.0)
+    others = (
+        (second, rigid_matrix(14.0, -6.0, 0.3), default),
+        (prepare_map(turned(building, 25.0, (5, -3))[0]), matrix, default),
+        (second, matrix, wider),
+    )
+    for other_second, other_matrix, params in others:
+        kept = SmoothedMap(first.walls, first.shape)
+        curvature_matrix(kept, second, matrix, local=True)
+        got = curvature_matrix(kept, other_second, other_matrix, local=True, params=params)[0]
+        want = curvature_matrix(
+            SmoothedMap(first.walls, first.shape),
+            other_second,
+            other_matrix,
+            local=True,
+            params=params,
+        )[0]
+        assert got is not None and want is not None
+        assert np.array_equal(got, want) and not np.array_equal(got, curvature)
+
+
+def test_boxed_fields_are_kept_and_equal_to_fresh_ones(building: np.ndarray) -> None:
+    walls = prepare_map(building).walls
+    smoothed = SmoothedMap(walls, building.shape)
+    box = (40, 30, 160, 120)
+    field = smoothed.field(1.0, box=box)
+    assert smoothed.field(1.0, box=box) is field
+    fresh = SmoothedMap(walls, building.shape).field(1.0, box=box)
+    assert np.array_equal(field.image, fresh.image) and field.corner == fresh.corner
+    # Another width or box is another field; the oldest kept one is dropped first.
+    assert smoothed.field(0.6, box=box) is not field
+    for shift in range(BOXED_FIELDS_KEPT):
+        smoothed.field(1.0, box=(41 + shift, 30, 160, 120))
+    again = smoothed.field(1.0, box=box)
+    assert again is not field and np.array_equal(again.image, field.image)
