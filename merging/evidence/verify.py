@@ -163,7 +163,7 @@ def landing_codes(
     cells: NDArray[np.int8], near_occupied: NDArray[np.bool_], clear_free: NDArray[np.bool_]
 ) -> NDArray[np.uint8]:
     """Each cell's :data:`KNOWN_BIT` (known or near a wall), :data:`NEAR_BIT` and
-    :data:`CLEAR_BIT`, as :func:`_count_landings` counts a point landing there."""
+    :data:`CLEAR_BIT`, as ``_count_landings`` counts a point landing there."""
     rows, cols = cells.shape
     codes = np.empty((rows, cols), dtype=np.uint8)
     for row in range(rows):
