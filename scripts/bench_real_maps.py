@@ -19,6 +19,9 @@ soon as it is known, and writing a Markdown report:
     a 1600 x 1600 crop of ``aces3`` against the same crop shifted by (23, 37)
     cells, and a 3200 x 3200 one of ``aces3`` drawn at twice the resolution
     (each cell split in four).
+``moderate-overlap``
+    Window pairs of the same four maps sharing 15-20 % (50 per map): the band
+    just above, where mergers used to succeed, to see that none is lost.
 ``low-overlap``
     Window pairs of four maps sharing 3-15 % of their area (the section 4.1
     protocol otherwise), right within 2 cells; what matters is that nothing
@@ -38,6 +41,7 @@ Usage::
     python scripts/bench_real_maps.py sessions
     python scripts/bench_real_maps.py whole --pairs-per-map 10
     python scripts/bench_real_maps.py low-overlap --pairs-per-map 75
+    python scripts/bench_real_maps.py moderate-overlap --seed 41
     python scripts/bench_real_maps.py sessions --methods tomographic --every 3   # a quick look
 """
 
@@ -78,6 +82,10 @@ SAME_BUILDING = (
 """Real pairs of maps of one building, without a known transform."""
 WHOLE_MAPS = ("aces3", "fr079", "intel_raster")
 LOW_OVERLAP_MAPS = ("aces3", "intel", "fr079", "brsu_c069")
+LOW_OVERLAP = (0.03, 0.15)
+"""Shares of their area the low-overlap windows hold in common."""
+MODERATE_OVERLAP = (0.15, 0.20)
+"""Shares of the moderate-overlap windows: the band just above the low-overlap suite."""
 ROUND_HALL = (672, 291, 247, range(600, 1020, 40), (13, 30))
 """aces3's round hall: window row, height, width, first window's columns, and the
 overlaps in columns of the second window to its left or right."""
@@ -170,15 +178,24 @@ def whole_cases(pairs_per_map: int, seed: int) -> Iterator[Case]:
                    rigid_matrix(*shift, 0.0), CROP_RIGHT_CELLS)  # fmt: skip
 
 
-def low_overlap_cases(pairs_per_map: int, seed: int) -> Iterator[Case]:
+def window_cases(suite: str, overlap: tuple[float, float], pairs_per_map: int,
+                 seed: int) -> Iterator[Case]:  # fmt: skip
+    """Window pairs of the four low-overlap maps sharing ``overlap`` of their area."""
     folder = maps_dir()
     assert folder is not None
+    group = f"windows sharing {round(overlap[0] * 100)}-{round(overlap[1] * 100)} %"
     for name in LOW_OVERLAP_MAPS:
         whole = merging.load_map(folder / f"{name}.yaml").data
-        pairs = cut_window_pairs(whole, count=pairs_per_map, overlap_range=(0.03, 0.15), rng=seed)
+        pairs = cut_window_pairs(whole, count=pairs_per_map, overlap_range=overlap, rng=seed)
         for index, pair in enumerate(pairs):
-            yield Case("low-overlap", "windows sharing 3-15 %", f"{name}#{index}", pair.map1,
-                       pair.map2, pair.truth, WINDOW_RIGHT_CELLS)  # fmt: skip
+            yield Case(suite, group, f"{name}#{index}", pair.map1, pair.map2, pair.truth,
+                       WINDOW_RIGHT_CELLS)  # fmt: skip
+
+
+def low_overlap_cases(pairs_per_map: int, seed: int) -> Iterator[Case]:
+    yield from window_cases("low-overlap", LOW_OVERLAP, pairs_per_map, seed)
+    folder = maps_dir()
+    assert folder is not None
     aces = merging.load_map(folder / "aces3.yaml").data
     row, height, width, columns, overlaps = ROUND_HALL
     for column in columns:
@@ -294,10 +311,11 @@ def unknown_table(rows: list[Row]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("suite", choices=("sessions", "whole", "low-overlap"))
+    parser.add_argument("suite", choices=("sessions", "whole", "low-overlap", "moderate-overlap"))
     parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
     parser.add_argument("--pairs-per-map", type=int, default=None,
-                        help="window pairs per map (whole: 10, low-overlap: 75)")  # fmt: skip
+                        help="window pairs per map (whole: 10, low-overlap: 75, "
+                             "moderate-overlap: 50)")  # fmt: skip
     parser.add_argument(
         "--every",
         type=int,
@@ -323,6 +341,8 @@ def main(argv: list[str] | None = None) -> int:
         cases = session_cases(args.every)
     elif args.suite == "whole":
         cases = whole_cases(args.pairs_per_map or 10, args.seed)
+    elif args.suite == "moderate-overlap":
+        cases = window_cases(args.suite, MODERATE_OVERLAP, args.pairs_per_map or 50, args.seed)
     else:
         cases = low_overlap_cases(args.pairs_per_map or 75, args.seed)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -27,3 +27,15 @@ def test_a_suite_of_two_groups_ends_with_their_pooled_medians() -> None:
     assert "| 0.011 |" in pooled["other"] and "| 1.15 |" in pooled["other"]
     single = bench.summary_table([r for r in rows if r.group == "a"], ["default", "other"])
     assert not any(line.startswith("| all pairs |") for line in single)
+
+
+def test_the_window_suites_cut_the_shares_they_name(maps_folder, monkeypatch) -> None:
+    bench = load_script("bench_real_maps")
+    monkeypatch.setattr(bench, "LOW_OVERLAP_MAPS", ("intel",))
+    for suite, overlap in (("low-overlap", bench.LOW_OVERLAP),
+                           ("moderate-overlap", bench.MODERATE_OVERLAP)):  # fmt: skip
+        cases = list(bench.window_cases(suite, overlap, 2, 41))
+        assert [case.name for case in cases] == ["intel#0", "intel#1"]
+        low, high = round(overlap[0] * 100), round(overlap[1] * 100)
+        assert {case.group for case in cases} == {f"windows sharing {low}-{high} %"}
+        assert {case.suite for case in cases} == {suite}
