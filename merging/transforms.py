@@ -64,3 +64,17 @@ def cells_to_metres(
     w1 = grid1.cell_to_world_matrix()
     w2 = grid2.cell_to_world_matrix()
     return w1 @ np.asarray(matrix, dtype=float) @ np.linalg.inv(w2)
+
+
+def halfway(
+    a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The rigid transform halfway between ``a`` and ``b``: turned by the mean of their
+    angles, and laying the centroid of ``points`` halfway between where they lay it."""
+    first, second = matrix_to_pose(a)[2], matrix_to_pose(b)[2]
+    angle = float(first + wrap_angle(second - first) / 2.0)
+    centre = points.mean(axis=0) if len(points) else np.zeros(2)
+    target = (apply_transform(a, centre[None, :]) + apply_transform(b, centre[None, :]))[0] / 2.0
+    turned = rigid_matrix(0.0, 0.0, angle)
+    shift = target - turned[:2, :2] @ centre
+    return rigid_matrix(float(shift[0]), float(shift[1]), angle)

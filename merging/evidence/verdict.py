@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -180,7 +181,10 @@ def judge(
         slide = pinning(first, second, best, params=params.confidence, verify_params=params.verify)
         turn = turning_strength(smoothed, second, best, local=True, params=params.gauss_newton)
         pinned = (slide, turn)
-        factors = confidence_factors(
+        # The curvature's factors again, with sliding and turning: the turn as its
+        # strength holds it, or, when the refinement comes back to it, as held.
+        rate = partial(
+            confidence_factors,
             check,
             other,
             strength=strength,
@@ -188,7 +192,8 @@ def judge(
             fit_quality=fit_quality,
             pinned=pinned,
         )
-        turn_held = turn_returns is not None and turn_is_held(
+        factors = rate()
+        if turn_returns is not None and turn_is_held(
             factors,
             unconstrained,
             pinned,
@@ -196,17 +201,8 @@ def judge(
             params.confidence,
             returned,
             fit_quality=fit_quality,
-        )
-        if turn_held:
-            factors = confidence_factors(
-                check,
-                other,
-                strength=strength,
-                params=params.confidence,
-                fit_quality=fit_quality,
-                pinned=pinned,
-                turn_held=True,
-            )
+        ):
+            factors = rate(turn_held=True)
     close = float(np.prod(factors))
     twins = _Twins(mirror)
     evidence: dict[str, float] = {

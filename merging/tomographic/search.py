@@ -121,6 +121,7 @@ from merging.tomographic.correlate import (
 from merging.transforms import (
     apply_transform,
     cells_to_metres,
+    halfway,
     matrix_to_pose,
     rigid_matrix,
     translation_matrix,
@@ -205,20 +206,31 @@ class _Maps:
         leads to.
         """
         before, matrix = candidate
-        better = refine_transform(
-            self.smoothed,
-            self.second,
-            matrix,
-            sigmas=stage.sigmas,
-            iterations=stage.iterations,
-            local=stage.local,
-            max_points=stage.points,
-            params=self.params.gauss_newton,
-        )
+        better = _refined_on(self.smoothed, self.second, matrix, stage, self.params)
         after = self.verify(better)
         if not keep or rank(after) >= rank(before) - self.params.keep_refined_margin:
             return after, better
         return before, matrix
+
+
+def _refined_on(
+    smoothed: SmoothedMap,
+    second: PreparedMap,
+    matrix: NDArray[np.float64],
+    stage: RefineStage,
+    params: TomographicParams,
+) -> NDArray[np.float64]:
+    """``matrix`` refined on ``smoothed``'s fields as ``stage`` says (one row of the schedule)."""
+    return refine_transform(
+        smoothed,
+        second,
+        matrix,
+        sigmas=stage.sigmas,
+        iterations=stage.iterations,
+        local=stage.local,
+        max_points=stage.points,
+        params=params.gauss_newton,
+    )
 
 
 def _rms_between(a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]):
@@ -722,20 +734,6 @@ def _both_ways(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.float
     return halfway(best, other, points), factor, gap
 
 
-def halfway(
-    a: NDArray[np.float64], b: NDArray[np.float64], points: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """The rigid transform halfway between ``a`` and ``b``: turned by the mean of their
-    angles, and laying the centroid of ``points`` halfway between where they lay it."""
-    first, second = matrix_to_pose(a)[2], matrix_to_pose(b)[2]
-    angle = float(first + wrap_angle(second - first) / 2.0)
-    centre = points.mean(axis=0) if len(points) else np.zeros(2)
-    target = (apply_transform(a, centre[None, :]) + apply_transform(b, centre[None, :]))[0] / 2.0
-    turned = rigid_matrix(0.0, 0.0, angle)
-    shift = target - turned[:2, :2] @ centre
-    return rigid_matrix(float(shift[0]), float(shift[1]), angle)
-
-
 def _rival_factor(
     maps: _Maps, best: NDArray[np.float64], rival: Candidate
 ) -> tuple[float, dict[str, float]]:
@@ -778,16 +776,7 @@ def _compromise(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.floa
         downsample_from_sigma=2.0 * max(stage.sigmas),
         whole_field_share=maps.params.gauss_newton.whole_field_share,
     )
-    moved = refine_transform(
-        full,
-        maps.second,
-        best,
-        sigmas=stage.sigmas,
-        iterations=stage.iterations,
-        local=stage.local,
-        max_points=stage.points,
-        params=maps.params.gauss_newton,
-    )
+    moved = _refined_on(full, maps.second, best, stage, maps.params)
     distance = _rms_between(moved, best, maps.second.points)
     if distance > maps.params.robust.distinct_cells:
         return best, 0.0

@@ -9,6 +9,7 @@ from merging.grid import OccupancyGrid
 from merging.transforms import (
     apply_transform,
     cells_to_metres,
+    halfway,
     matrix_to_pose,
     rigid_matrix,
     rotation_about,
@@ -88,3 +89,15 @@ def test_cells_to_metres_carries_a_point_like_its_cell_matrix() -> None:
     )
     # same resolution: the metric transform is rigid, rotated by 0.3 + 0.9 - (-0.8)
     assert matrix_to_pose(metres)[2] == pytest.approx(float(wrap_angle(0.3 + 0.9 + 0.8)))
+
+
+def test_halfway_turns_by_the_mean_angle_and_lays_the_centroid_halfway() -> None:
+    points = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 20.0]])
+    a = rigid_matrix(4.0, -2.0, np.radians(179.0))
+    b = rigid_matrix(6.0, 2.0, np.radians(-179.0))
+    between = halfway(a, b, points)
+    assert abs(matrix_to_pose(between)[2]) == pytest.approx(np.pi)
+    centre = points.mean(axis=0)[None, :]
+    expected = (apply_transform(a, centre) + apply_transform(b, centre)) / 2
+    assert apply_transform(between, centre) == pytest.approx(expected)
+    np.testing.assert_allclose(halfway(a, a, points), a, atol=1e-12)

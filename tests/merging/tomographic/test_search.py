@@ -217,18 +217,6 @@ def test_a_small_overlap_whose_turn_the_refinement_holds_is_accepted(maps_folder
     assert refused.reason.startswith("the overlap is too short to hold map 2's turn")
 
 
-def test_halfway_turns_by_the_mean_angle_and_lays_the_centroid_halfway() -> None:
-    points = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 20.0]])
-    a = rigid_matrix(4.0, -2.0, np.radians(179.0))
-    b = rigid_matrix(6.0, 2.0, np.radians(-179.0))
-    between = search.halfway(a, b, points)
-    assert abs(matrix_to_pose(between)[2]) == pytest.approx(np.pi)
-    centre = points.mean(axis=0)[None, :]
-    expected = (search.apply_transform(a, centre) + search.apply_transform(b, centre)) / 2
-    assert search.apply_transform(between, centre) == pytest.approx(expected)
-    np.testing.assert_allclose(search.halfway(a, a, points), a, atol=1e-12)
-
-
 def test_a_whole_building_refined_both_ways_lands_in_one_place() -> None:
     grid = synthetic_building(8)
     map2, truth = turned(grid, 20.0, (5.0, -3.0))
