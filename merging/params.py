@@ -389,11 +389,27 @@ class ConfidenceParams:
         0.12); of the 16 wrong ones asked, five did, all 2.3-2.8 cells off
         but one, and were refused after (by ``reverse_gap_cells`` and the
         mirror check).
-    turn_return_fit : float
+    slide_return_cells : float
+        The same for a slide that costs too little to pin a placement
+        (:func:`merging.evidence.verdict.slide_is_held`): restarted from the
+        placement slid by each of ``pin_cells`` in ``pin_directions``
+        directions, the narrow refinement must come back within this. A
+        corridor with nothing across it lets the restarts stay where they
+        started. Tighter than the turn's: a placement held both ways is held
+        by the sharpness of its optimum alone, with no count of walls. On
+        fifteen seeds of the low-overlap suite (4500 window
+        pairs, listed in ``docs/benchmarks/real_maps.md``) 107 of the 169
+        right placements asked came back within 0.75 (median 0.19), 69 of
+        them then accepted; of the 15 wrong ones asked two did, 19 and 108
+        cells off in symmetric parts of ``brsu_c069``, which the mirror check
+        refused. Allowed a whole cell, one more came back (0.99) and was
+        accepted 2.5 cells off; 0.75 was set on the first ten seeds, the
+        last five were drawn after.
+    return_fit : float
         The fit quality (agreeing minus weighted conflicting walls, as the
         fit factor counts it) a placement needs for the refinement's coming
-        back to hold its turn: a sharp optimum vouches for the truth only
-        where nearly every wall meets its twin. Right placements held that
+        back to hold its turn or its slide: a sharp optimum vouches for the
+        truth only where nearly every wall meets its twin. Right placements held that
         way on those seeds fit at 0.983 or better; one 850 cells off, its
         optimum as sharp, at 0.88.
     reverse_gap_cells : float
@@ -451,7 +467,8 @@ class ConfidenceParams:
     pin_scale: float = 40.0
     turn_scale: float = 15.0
     turn_return_cells: float = 1.0
-    turn_return_fit: float = 0.95
+    slide_return_cells: float = 0.75
+    return_fit: float = 0.95
     reverse_gap_cells: float = 2.0
     reverse_gap_width: float = 0.25
     max_lever: float = 12.0
@@ -471,11 +488,12 @@ class ConfidenceParams:
                 "pin_scale",
                 "turn_scale",
                 "turn_return_cells",
+                "slide_return_cells",
                 "reverse_gap_cells",
                 "reverse_gap_width",
                 "max_lever",
             ),
-            fractions=("pin_below", "turn_return_fit", "accept"),
+            fractions=("pin_below", "return_fit", "accept"),
         )
 
 

@@ -26,7 +26,9 @@ walls reach from the overlap is :func:`lever_arm`: a turn too small for the
 refinement to resolve at the overlap moves them that many times as much.
 Where the curvature is flat the refinement is asked directly: restarted from
 the placement turned a little either way, does it come back
-(:func:`merging.evidence.verdict.turn_is_held`)?
+(:func:`merging.evidence.verdict.turn_is_held`)? The same is asked of a
+slide that costs too little to count (:func:`merging.evidence.verdict.slide_is_held`):
+restarted from each of the moves :func:`pinning` tries (:func:`slides`).
 """
 
 from __future__ import annotations
@@ -70,16 +72,24 @@ def pinning(
         Negative when a moved placement explains more.
     """
     base = verify(first, second, matrix, params=verify_params).net
-    angles = np.arange(params.pin_directions) * (2.0 * np.pi / params.pin_directions)
     least = np.inf
+    for move in slides(params):
+        moved = verify(first, second, move @ matrix, params=verify_params).net
+        least = min(least, base - moved)
+    return float(least)
+
+
+def slides(params: ConfidenceParams = DEFAULT_CONFIDENCE) -> list[NDArray[np.float64]]:
+    """The small moves :func:`pinning` tries: ``pin_cells`` (chessboard) in each of
+    ``pin_directions`` directions, as translations in map 1's cells, nearest first."""
+    angles = np.arange(params.pin_directions) * (2.0 * np.pi / params.pin_directions)
+    moves = []
     for distance in params.pin_cells:
         for angle in angles:
             step = np.array([np.cos(angle), np.sin(angle)])
             step *= distance / np.max(np.abs(step))
-            move = rigid_matrix(float(step[0]), float(step[1]), 0.0)
-            moved = verify(first, second, move @ matrix, params=verify_params).net
-            least = min(least, base - moved)
-    return float(least)
+            moves.append(rigid_matrix(float(step[0]), float(step[1]), 0.0))
+    return moves
 
 
 def lever_arm(first: PreparedMap, second: PreparedMap, matrix: NDArray[np.float64]) -> float:

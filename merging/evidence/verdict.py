@@ -124,6 +124,7 @@ def judge(
     *,
     far_runner_up: tuple[Verification, NDArray[np.float64]] | None = None,
     turn_returns: Callable[[], float] | None = None,
+    slide_returns: Callable[[float], float] | None = None,
 ) -> Verdict:
     """Judge ``best`` (map 2 cells -> map 1 cells) against the best different placement.
 
@@ -144,7 +145,12 @@ def judge(
     ``best`` turned a little about the overlap; it is called only for a
     placement held against sliding that only a weak turn keeps from being
     vouched for, and within ``ConfidenceParams.turn_return_cells`` the turn
-    counts as held (:func:`turn_is_held`).
+    counts as held (:func:`turn_is_held`). ``slide_returns`` is asked the
+    same for a placement whose turn is held (by its curvature or so) that
+    only a slide costing too little keeps from being vouched for, restarted
+    from each small slide :func:`merging.evidence.pinning.pinning` tries; it
+    may stop at the first restart ending farther than the distance it is
+    given (:func:`slide_is_held`).
     """
     check = verify(first, second, best, params=params.verify)
     strength = constraint_strength(smoothed, second, best, local=True, params=params.gauss_newton)
@@ -193,7 +199,7 @@ def judge(
             pinned=pinned,
         )
         factors = rate()
-        if turn_returns is not None and turn_is_held(
+        turn_held = turn_returns is not None and turn_is_held(
             factors,
             unconstrained,
             pinned,
@@ -201,8 +207,21 @@ def judge(
             params.confidence,
             returned,
             fit_quality=fit_quality,
-        ):
+            slide_asked=slide_returns is not None,
+        )
+        if turn_held:
             factors = rate(turn_held=True)
+        if slide_returns is not None and slide_is_held(
+            factors,
+            unconstrained,
+            pinned,
+            slide_returns,
+            params.confidence,
+            returned,
+            fit_quality=fit_quality,
+            turn_held=turn_held,
+        ):
+            factors = rate(turn_held=turn_held, slide_held=True)
     close = float(np.prod(factors))
     twins = _Twins(mirror)
     evidence: dict[str, float] = {
@@ -297,6 +316,7 @@ def turn_is_held(
     measures: dict[str, float],
     *,
     fit_quality: float,
+    slide_asked: bool = False,
 ) -> bool:
     """Whether the refinement holds a placement's turn that its curvature holds weakly.
 
@@ -312,7 +332,7 @@ def turn_is_held(
     back, with the slide's factor alone they would pass (``unconstrained``
     is their product without the constraint), and the walls meet closely
     (``fit_quality``, as the fit factor counts it, at least
-    ``params.turn_return_fit``): that the refinement comes back says its
+    ``params.return_fit``): that the refinement comes back says its
     optimum is sharp, which vouches for the truth only where nearly every
     wall meets its twin. Adds the farthest end, as ``turn_return_cells``,
     to ``measures`` when asked.
@@ -320,14 +340,57 @@ def turn_is_held(
     slid, turned = pinned_factors(pinned, params)
     if (
         np.prod(factors) >= params.accept
-        or turned >= slid
-        or unconstrained * slid < params.accept
-        or fit_quality < params.turn_return_fit
+        or unconstrained * turned >= params.accept
+        or unconstrained * (1.0 if slide_asked else slid) < params.accept
+        or fit_quality < params.return_fit
     ):
         return False
     returned = turn_returns()
     measures["turn_return_cells"] = returned
     return returned <= params.turn_return_cells
+
+
+def slide_is_held(
+    factors: tuple[float, ...],
+    unconstrained: float,
+    pinned: tuple[float, float],
+    slide_returns: Callable[[float], float],
+    params: ConfidenceParams,
+    measures: dict[str, float],
+    *,
+    fit_quality: float,
+    turn_held: bool = False,
+) -> bool:
+    """Whether the refinement holds a placement against sliding that costs too little.
+
+    :func:`merging.evidence.pinning.pinning` counts the walls a small slide
+    takes off their twins; a door or a short cross wall holding a corridor
+    loses only tens of cells, which the slide's factor counts as weak,
+    though the placement may be the truth to a tenth of a cell. As for the
+    turn (:func:`turn_is_held`) the refinement is asked instead: restarted
+    from the placement slid by each of those moves, does it come back
+    (``slide_returns(within)``, the farthest end, within
+    ``params.slide_return_cells``; it may stop at the first farther)? A
+    corridor with nothing across it does not: the narrow fields are flat
+    along it. Asked only when it can change the verdict: the factors fall
+    short of ``params.accept``, the slide is what holds the constraint back
+    (the turn held, by its own factor or by :func:`turn_is_held`: ``turn_held``),
+    and the walls meet closely (``fit_quality`` at least
+    ``params.return_fit``). Adds the farthest end, as
+    ``slide_return_cells``, to ``measures`` when asked.
+    """
+    slid, turned = pinned_factors(pinned, params)
+    turned = 1.0 if turn_held else turned
+    if (
+        np.prod(factors) >= params.accept
+        or slid >= turned
+        or unconstrained * turned < params.accept
+        or fit_quality < params.return_fit
+    ):
+        return False
+    returned = slide_returns(params.slide_return_cells)
+    measures["slide_return_cells"] = returned
+    return returned <= params.slide_return_cells
 
 
 class _Twins:
@@ -432,7 +495,9 @@ def refusal_reason(
     placement about as good means ambiguity, a weak constraint a single
     wall or corridor, or, when the refinement was restarted turned a little
     (``turn_return_cells`` in ``evidence``) and did not come back, an overlap
-    too short to hold the turn (:func:`turn_reason`).
+    too short to hold the turn (:func:`turn_reason`), or, restarted slid a
+    little (``slide_return_cells``), a corridor it slides along
+    (:func:`slide_reason`).
     """
     values = dict(zip(CLOSE_FACTORS, close, strict=True))
     failing = [name for name in REASON_ORDER if values[name] < 0.5]
@@ -456,9 +521,14 @@ def refusal_reason(
             evidence.get(f"{competitor}runner_up_distance_cells", 0.0),
             evidence.get(f"{competitor}runner_up_turn_deg", 0.0),
         )
-    returned = evidence.get("turn_return_cells", float("inf"))
-    if cause == "constraint" and np.isfinite(returned):
-        return turn_reason(returned)
+    # The slide is asked about only once the turn is held, so it names the cause first.
+    for measure, reason in (
+        ("slide_return_cells", slide_reason),
+        ("turn_return_cells", turn_reason),
+    ):
+        returned = evidence.get(measure, float("inf"))
+        if cause == "constraint" and np.isfinite(returned):
+            return reason(returned)
     if cause == "fit" and few_walls:
         return (
             "the walls do not line up: too few of them meet, even allowing a few cells for "
@@ -485,6 +555,15 @@ def turn_reason(returned: float) -> str:
     return (
         "the overlap is too short to hold map 2's turn: started turned a little about "
         f"it, the fit settles {returned:.1f} cells away"
+    )
+
+
+def slide_reason(returned: float) -> str:
+    """Why a placement whose slide costs little is refused: restarted slid a little, the
+    refinement ended ``returned`` cells (RMS) away."""
+    return (
+        "only one wall or corridor to align on: started slid a little along it, the fit "
+        f"settles {returned:.1f} cells away"
     )
 
 

@@ -400,6 +400,7 @@ def confidence_factors(
     fit_quality: float | None = None,
     pinned: tuple[float, float] | None = None,
     turn_held: bool = False,
+    slide_held: bool = False,
 ) -> tuple[float, float, float, float, float]:
     """The five factors of :func:`confidence`: fit, support, distinctiveness, constraint, space.
 
@@ -409,10 +410,11 @@ def confidence_factors(
     sliding the placement a little (:func:`merging.evidence.pinning.pinning`) and the
     strength holding its turn (:func:`merging.evidence.refine.turning_strength`); the
     constraint factor is then the larger of the curvature's and the smaller
-    of the two :func:`pinned_factors`. ``turn_held`` says the turn was shown
-    to be held another way (the refinement, restarted turned a little,
-    comes back: :func:`merging.evidence.verdict.judge`), so the slide's
-    factor alone stands for the pinning.
+    of the two :func:`pinned_factors`. ``turn_held`` and ``slide_held`` say
+    the turn or the slide was shown to be held another way (the refinement,
+    restarted turned or slid a little, comes back:
+    :func:`merging.evidence.verdict.judge`), so the other one's factor alone
+    stands for the pinning (both held: the placement is pinned).
     """
     quality = best.quality if fit_quality is None else fit_quality
     fit = expit((quality - params.fit_centre) / params.fit_width)
@@ -426,7 +428,8 @@ def confidence_factors(
     )
     if pinned is not None:
         slid, turned = pinned_factors(pinned, params)
-        constrained = max(constrained, slid if turn_held else min(slid, turned))
+        held = min(1.0 if slide_held else slid, 1.0 if turn_held else turned)
+        constrained = max(constrained, held)
     shared = 1.0 - np.exp(-best.shared_space / params.shared_space_scale)
     return (float(fit), float(support), float(distinct), float(constrained), float(shared))
 

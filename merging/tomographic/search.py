@@ -89,6 +89,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -98,7 +99,7 @@ from scipy.special import expit
 from merging.api import MIN_OCCUPIED_CELLS, register_method
 from merging.evaluation.metrics import as_matrix
 from merging.evidence.mirror import MirrorCandidates, mirrored_part, twin_ground
-from merging.evidence.pinning import meeting_walls
+from merging.evidence.pinning import meeting_walls, slides
 from merging.evidence.refine import SmoothedMap, refine_transform
 from merging.evidence.verdict import MirrorSearch, ambiguity_reason, judge, reverse_reason
 from merging.evidence.verify import PreparedMap, Verification, prepare_map, verify
@@ -579,6 +580,7 @@ def _judged(
         mirror,
         far_runner_up=far_runner_up,
         turn_returns=restarts.farthest,
+        slide_returns=partial(_slide_return, maps, best),
     )
     evidence = verdict.evidence
     confidence, accepted, reason = verdict.confidence, verdict.accepted, verdict.reason
@@ -679,6 +681,22 @@ class _TurnedRestarts:
                     start = maps.refine(start, stage, keep=False)
                 found.append(start)
         return found
+
+
+def _slide_return(maps: _Maps, best: NDArray[np.float64], within: float) -> float:
+    """How far (cells RMS over map 2's walls) the narrow refinement ends from ``best`` when
+    restarted from ``best`` slid by each small move :func:`merging.evidence.pinning.pinning`
+    tries, the farthest moves first; stops at the first end farther than ``within``."""
+    points = maps.second.points
+    farthest = 0.0
+    for move in reversed(slides(maps.params.confidence)):
+        start = (maps.verify(move @ best), move @ best)
+        for stage in maps.params.stages[1:]:
+            start = maps.refine(start, stage, keep=False)
+        farthest = max(farthest, _rms_between(start[1], best, points))
+        if farthest > within:
+            break
+    return farthest
 
 
 def _turned_rival(

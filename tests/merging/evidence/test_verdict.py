@@ -1,10 +1,19 @@
-"""Refusal reasons: which failing factor a refusal names, in words; when a weak turn is held."""
+"""Refusal reasons: which failing factor a refusal names, in words; when a weak turn or a
+cheap slide is held by the refinement."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import pytest
 
-from merging.evidence.verdict import CLOSE_FACTORS, refusal_reason, reverse_reason, turn_is_held
+from merging.evidence.verdict import (
+    CLOSE_FACTORS,
+    refusal_reason,
+    reverse_reason,
+    slide_is_held,
+    turn_is_held,
+)
 from merging.evidence.verify import Verification, confidence_factors, pinned_factors
 from merging.params import DEFAULT_PARAMS
 
@@ -62,6 +71,15 @@ def test_a_turn_the_refinement_does_not_come_back_from_is_named() -> None:
     assert "3.0 cells away" in words
 
 
+def test_a_slide_the_refinement_does_not_come_back_from_is_named_before_the_turn() -> None:
+    # The slide is asked about only once the turn is held: when both were asked, the
+    # slide is why.
+    evidence = {"turn_return_cells": 0.1, "slide_return_cells": 2.46}
+    words = refusal_reason(close(constraint=FAIL), {}, evidence)
+    assert words.startswith("only one wall or corridor to align on: started slid a little")
+    assert "2.5 cells away" in words
+
+
 # The close fit's factors with the constraint last but one: (fit, support, distinct,
 # constraint, space). A slide costing 120 cells gives 0.95; a turn of 3, 0.18.
 PINNED = (120.0, 3.0)
@@ -94,6 +112,62 @@ def test_the_turn_is_held_when_the_refinement_comes_back(returned: float, held: 
     assert measures == {"turn_return_cells": returned}
 
 
+def test_a_weak_turn_is_asked_about_with_a_weak_slide_when_the_slide_will_be_asked_too() -> None:
+    params = DEFAULT_PARAMS.confidence
+    # Sliding costs 5 cells (0.12), turning 3 (0.18): neither alone would pass.
+    both = (5.0, 3.0)
+    exact = {"fit_quality": 1.0}
+    assert not turn_is_held(HELD_BACK, 0.96, both, _never, params, {}, **exact)
+    measures: dict[str, float] = {}
+    held = turn_is_held(
+        HELD_BACK, 0.96, both, lambda: 0.2, params, measures, slide_asked=True, **exact
+    )
+    assert held
+    assert measures == {"turn_return_cells": 0.2}
+    # ... but not when nothing else holds the verdict back.
+    assert not turn_is_held(HELD_BACK, 0.5, both, _never, params, {}, slide_asked=True, **exact)
+
+
+def _never_slid(within: float) -> float:
+    raise AssertionError("the slide was asked about though it cannot change the verdict")
+
+
+# A slide costing 5 cells gives 0.12; a turn of 30, 0.86.
+CHEAP_SLIDE = (5.0, 30.0)
+
+
+def test_the_slide_is_asked_about_only_when_it_alone_holds_the_verdict_back() -> None:
+    params = DEFAULT_PARAMS.confidence
+    exact = {"fit_quality": 1.0}
+    ask = partial(slide_is_held, params=params, measures={}, slide_returns=_never_slid)
+    # Already passing; the turn the weaker hold (and not held); too weak anyway.
+    assert not ask((0.9, 1, 1, 0.9, 1), 0.96, CHEAP_SLIDE, **exact)
+    assert not ask(HELD_BACK, 0.96, PINNED, **exact)
+    assert not ask(HELD_BACK, 0.5, CHEAP_SLIDE, **exact)
+    assert not ask(HELD_BACK, 0.96, (5.0, 3.0), **exact)
+    # ... or the walls meet too loosely.
+    assert not ask(HELD_BACK, 0.96, CHEAP_SLIDE, fit_quality=0.9)
+
+
+@pytest.mark.parametrize(("returned", "held"), [(0.2, True), (0.9, False), (float("inf"), False)])
+def test_the_slide_is_held_when_the_refinement_comes_back(returned: float, held: bool) -> None:
+    params = DEFAULT_PARAMS.confidence
+    asked_within: list[float] = []
+
+    def returns(within: float) -> float:
+        asked_within.append(within)
+        return returned
+
+    measures: dict[str, float] = {}
+    # A weak turn held by the refinement leaves the cheap slide to be asked.
+    both = (5.0, 3.0)
+    asked = slide_is_held(HELD_BACK, 0.96, both, returns, params, measures, fit_quality=1.0,
+                          turn_held=True)  # fmt: skip
+    assert asked is held
+    assert measures == {"slide_return_cells": returned}
+    assert asked_within == [params.slide_return_cells]
+
+
 def test_a_held_turn_leaves_the_slide_to_pin_the_placement() -> None:
     params = DEFAULT_PARAMS.confidence
     check = Verification(agreement=1.0, conflict=0.0, overlap=2000.0, agreeing=2000.0,
@@ -104,6 +178,18 @@ def test_a_held_turn_leaves_the_slide_to_pin_the_placement() -> None:
     held = confidence_factors(check, strength=0.5, params=params, pinned=PINNED, turn_held=True)
     assert loose[3] == pytest.approx(turned)
     assert held[3] == pytest.approx(slid)
+
+
+def test_a_held_slide_leaves_the_turn_to_pin_the_placement_and_both_held_pin_it() -> None:
+    params = DEFAULT_PARAMS.confidence
+    check = Verification(agreement=1.0, conflict=0.0, overlap=2000.0, agreeing=2000.0,
+                         shared_space=5000.0)  # fmt: skip
+    slid, turned = pinned_factors(CHEAP_SLIDE, params)
+    assert slid < 0.5 < turned
+    rate = partial(confidence_factors, check, strength=0.5, params=params, pinned=CHEAP_SLIDE)
+    assert rate()[3] == pytest.approx(slid)
+    assert rate(slide_held=True)[3] == pytest.approx(turned)
+    assert rate(slide_held=True, turn_held=True)[3] == 1.0
 
 
 def test_a_reverse_refinement_far_away_or_a_near_miss_says_which() -> None:

@@ -217,6 +217,38 @@ def test_a_small_overlap_whose_turn_the_refinement_holds_is_accepted(maps_folder
     assert refused.reason.startswith("the overlap is too short to hold map 2's turn")
 
 
+def test_a_small_overlap_whose_slide_the_refinement_holds_is_accepted(maps_folder) -> None:
+    # Windows of fr079 sharing 3-15 % (bench_real_maps.py low-overlap --seed 12345, pair
+    # 42): sliding 2 or 4 cells costs only 30 net cells and the curvature holds the turn
+    # weakly (strength 4), yet started slid in each direction, and turned, the refinement
+    # comes back within a tenth of a cell: accepted, a quarter of a cell off. Asked to come
+    # back from the slides within a hundredth of a cell, it is refused for the slide.
+    whole = merging.load_map(maps_folder / "fr079.yaml").data
+    pair = cut_window_pairs(whole, count=43, overlap_range=(0.03, 0.15), rng=12345)[42]
+    result = merging.estimate_transform(pair.map1, pair.map2)
+    assert result.accepted
+    assert transform_error(result.matrix, pair.truth, pair.map2)[0] < 1.0
+    assert result.evidence["slide_return_cells"] < DEFAULT_PARAMS.confidence.slide_return_cells
+    strict = replace(
+        DEFAULT_PARAMS,
+        confidence=replace(DEFAULT_PARAMS.confidence, slide_return_cells=0.01),
+    )
+    refused = merging.estimate_transform(pair.map1, pair.map2, params=strict)
+    assert not refused.accepted
+    assert refused.reason.startswith("only one wall or corridor to align on: started slid")
+
+
+def test_a_slide_return_stops_at_the_first_restart_that_strays() -> None:
+    # A single straight wall: slid along it, the refinement stays where it was started.
+    grid = np.full((60, 80), -1, dtype=np.int8)
+    grid[20:40, 5:75] = 0
+    grid[30, 5:75] = 100
+    maps = search._Maps(prepare_map(grid), prepare_map(grid), DEFAULT_PARAMS)
+    strayed = search._slide_return(maps, np.eye(3), 0.5)
+    assert strayed > 0.5
+    assert search._slide_return(maps, np.eye(3), np.inf) >= strayed
+
+
 def test_a_whole_building_refined_both_ways_lands_in_one_place() -> None:
     grid = synthetic_building(8)
     map2, truth = turned(grid, 20.0, (5.0, -3.0))
