@@ -523,6 +523,23 @@ class RobustParams:
         of separate sessions bend against each other by up to half a metre
         (10 cells at 0.05 m), so a placement nearer than that explains the
         same overlap bent a little the other way: one answer, not two.
+    bent_rival_cells : float
+        A placement refused as ambiguous against a runner-up nearer than
+        this (cells RMS over map 2's walls; 3 m at 0.05 m) and turned less
+        than ``bent_rival_deg`` is judged again as one answer with it: the
+        best rigid compromise over the whole overlap between the two
+        (``_bent_compromise`` in :mod:`merging.tomographic.search`), held
+        against the placements farther than this. Sessions of a floor bend
+        against each other by more than ``distinct_cells`` in places: the
+        Halmstad F5 sessions refused as ambiguous had runner-ups 12-54
+        cells away turned 0-3 degrees, each fitting another part of the
+        floor. A near rival of maps that do not bend (a corridor's repeated
+        doors) is refused still: the compromise lays walls on open space or
+        slides along the corridor, and small maps do not reach
+        ``agreeing``.
+    bent_rival_deg : float
+        The turn (degrees) within which such a runner-up counts as the
+        same answer bent.
     agreeing : float
         Wall cells (both directions) that land on walls: a large overlap,
         about 400 m of wall at 0.05 m. Right E5 session placements this way
@@ -578,6 +595,8 @@ class RobustParams:
 
     margin: float = 0.3
     distinct_cells: float = 10.0
+    bent_rival_cells: float = 60.0
+    bent_rival_deg: float = 5.0
     agreeing: float = 8000.0
     tolerance: int = 4
     agreement: float = 0.5

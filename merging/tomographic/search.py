@@ -409,6 +409,9 @@ def _merge_observed(
     result = _judged_first(maps, pool, hypotheses, timings)
     if result.accepted:
         return result
+    bent = _bent_compromise(maps, pool, hypotheses, timings, result.evidence)
+    if bent is not None and bent.accepted:
+        return bent
     # The best by score is refused: a placement whose walls meet exactly may explain a
     # small overlap that the score, preferring much shared space, ranked below a loose
     # large one. Such a placement is judged too, against all the others.
@@ -418,6 +421,57 @@ def _merge_observed(
     pool = [_finished(maps, pool[close]), *pool[:close], *pool[close + 1 :]]
     alternative = _judged_first(maps, pool, hypotheses, timings)
     return alternative if alternative.accepted else result
+
+
+def _bent_compromise(
+    maps: _Maps,
+    pool: list[Candidate],
+    hypotheses: tuple[Hypothesis, ...],
+    timings: dict[str, float],
+    evidence: dict[str, float],
+) -> MergeResult | None:
+    """The verdict on the rigid compromise between the pool's first placement and a near
+    rival of maps that bend; None when the rival is not near (``evidence`` is the first
+    placement's).
+
+    Two sessions of one floor bend against each other: one part of the
+    overlap fits one rigid placement, another part a placement a metre or
+    two away turned a degree or two, and each explains about as much, so
+    the robust evidence refuses the first as ambiguous. When that rival
+    lies within ``RobustParams.bent_rival_cells`` and ``bent_rival_deg``,
+    the two are taken for one answer: the placement halfway between them,
+    refined on fields as wide as the bending (``TomographicParams.compromise``)
+    to the best rigid compromise over the whole overlap, is judged against
+    the placements farther than that.
+    """
+    robust = maps.params.robust
+    distance = evidence.get("tolerant_runner_up_distance_cells", np.inf)
+    turn = evidence.get("tolerant_runner_up_turn_deg", np.inf)
+    if (
+        evidence.get("robust_margin", 1.0) >= 0.5
+        or distance > robust.bent_rival_cells
+        or turn > robust.bent_rival_deg
+    ):
+        return None
+    points = maps.second.points
+    best = pool[0][1]
+    rival = next(c for c in pool[1:] if _rms_between(c[1], best, points) > robust.distinct_cells)
+    start = halfway(best, rival[1], points)
+    compromise = _refined_on(_compromise_field(maps), maps.second, start, maps.params.compromise,
+                             maps.params)  # fmt: skip
+    farther = [
+        candidate
+        for candidate in pool
+        if _rms_between(candidate[1], compromise, points) > robust.bent_rival_cells
+    ]
+    runners_up = _runners_up(
+        [(maps.verify(compromise), compromise), *farther],
+        points,
+        (maps.params.distinct_cells, robust.distinct_cells),
+    )
+    result = _judged(maps, compromise, runners_up, hypotheses, timings)
+    measures = {"bent_rival_distance_cells": distance, "bent_rival_turn_deg": turn}
+    return replace(result, evidence={**result.evidence, **measures})
 
 
 def _judged_first(
@@ -784,21 +838,27 @@ def _compromise(maps: _Maps, best: NDArray[np.float64]) -> tuple[NDArray[np.floa
     farther than the bending (``RobustParams.distinct_cells``) is another
     answer, not the same one bent; then ``best`` is kept.
     """
-    stage = maps.params.compromise
-    # Full-resolution fields: a field computed on the half-resolution grid is off by
-    # up to a few cells at these widths, which the search's finer fields correct
-    # afterwards and this refinement, the last, would not.
-    full = SmoothedMap(
-        maps.first.walls,
-        maps.first.shape,
-        downsample_from_sigma=2.0 * max(stage.sigmas),
-        whole_field_share=maps.params.gauss_newton.whole_field_share,
-    )
-    moved = _refined_on(full, maps.second, best, stage, maps.params)
+    moved = _refined_on(_compromise_field(maps), maps.second, best, maps.params.compromise,
+                        maps.params)  # fmt: skip
     distance = _rms_between(moved, best, maps.second.points)
     if distance > maps.params.robust.distinct_cells:
         return best, 0.0
     return moved, distance
+
+
+def _compromise_field(maps: _Maps) -> SmoothedMap:
+    """Map 1's fields for the compromise's widths (``TomographicParams.compromise``).
+
+    At full resolution: a field computed on the half-resolution grid is off
+    by up to a few cells at these widths, which the search's finer fields
+    correct afterwards and the compromise, the last refinement, would not.
+    """
+    return SmoothedMap(
+        maps.first.walls,
+        maps.first.shape,
+        downsample_from_sigma=2.0 * max(maps.params.compromise.sigmas),
+        whole_field_share=maps.params.gauss_newton.whole_field_share,
+    )
 
 
 def refine_from(

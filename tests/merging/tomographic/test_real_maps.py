@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ from merging.evidence import verdict
 from merging.evidence.robust import open_consistency, robust_confidence, tolerant_fit
 from merging.evidence.verdict import MIRROR_REASON
 from merging.evidence.verify import prepare_map
-from merging.params import DEFAULT_STAGES, RobustParams, TomographicParams
+from merging.params import DEFAULT_PARAMS, DEFAULT_STAGES, RobustParams, TomographicParams
 from merging.resample import coarsen_cells, scale_matrix
 from merging.tomographic.search import coarse_to_fine
 from merging.transforms import apply_transform, rigid_matrix
@@ -103,6 +104,27 @@ def test_a_placement_a_few_cells_off_is_the_same_one_bent(maps_folder, e5_truth,
     assert evidence["tolerant_runner_up_distance_cells"] > 10
     assert evidence["tolerant_margin"] > 0.3
     assert result.accepted
+
+
+@pytest.mark.parametrize("key", ["E5_12|E5_13"])
+def test_a_near_rival_of_bent_sessions_is_merged_into_the_compromise(
+    maps_folder, e5_truth, key: str
+) -> None:
+    # One part of the overlap fits the best placement, another a placement 9 cells
+    # away turned a degree, and each explains about as much: ambiguous as two answers,
+    # right as one. The compromise between them over the whole overlap is accepted,
+    # within the floor's rule of the annotated fit; taken for two answers it is refused.
+    result = merged_sessions(maps_folder / "halmstad", e5_truth, key)
+    assert result.accepted
+    assert result.evidence["bent_rival_distance_cells"] <= DEFAULT_PARAMS.robust.bent_rival_cells
+    assert result.evidence["tolerant_runner_up_distance_cells"] > 100
+    strict = replace(DEFAULT_PARAMS, robust=replace(DEFAULT_PARAMS.robust, bent_rival_cells=5.0))
+    first, second = (
+        merging.load_map(maps_folder / "halmstad" / f"{n}.yaml") for n in key.split("|")
+    )
+    refused = merging.estimate_transform(first, second, params=strict)
+    assert not refused.accepted
+    assert refused.reason.startswith("ambiguous: another placement about as good")
 
 
 def test_two_sources_of_one_building_are_merged(maps_folder) -> None:
