@@ -412,6 +412,13 @@ def _merge_observed(
     bent = _bent_compromise(maps, pool, hypotheses, timings, result.evidence)
     if bent is not None and bent.accepted:
         return bent
+    if bent is not None:
+        result = replace(
+            result,
+            reason=f"{result.reason}; taken for one answer on maps that bend, the compromise "
+            f"between the two is refused too: {bent.reason}",
+            evidence={**result.evidence, "bent_compromise_confidence": bent.confidence},
+        )
     # The best by score is refused: a placement whose walls meet exactly may explain a
     # small overlap that the score, preferring much shared space, ranked below a loose
     # large one. Such a placement is judged too, against all the others.

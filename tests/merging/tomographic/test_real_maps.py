@@ -127,6 +127,18 @@ def test_a_near_rival_of_bent_sessions_is_merged_into_the_compromise(
     assert refused.reason.startswith("ambiguous: another placement about as good")
 
 
+def test_a_refused_compromise_of_bent_sessions_says_why(maps_folder) -> None:
+    # F5_01 and F5_07 (no annotated truth): the rival 24 cells away is taken for the same
+    # answer bent, but the compromise between them lays too many walls on open space.
+    folder = maps_folder / "halmstad"
+    first, second = (merging.load_map(folder / f"{name}.yaml") for name in ("F5_01", "F5_07"))
+    result = merging.estimate_transform(first, second)
+    assert not result.accepted
+    assert result.reason.startswith("ambiguous: another placement about as good lies 24 cells")
+    assert "the compromise between the two is refused too: the walls do not" in result.reason
+    assert result.evidence["bent_compromise_confidence"] < 0.6
+
+
 def test_two_sources_of_one_building_are_merged(maps_folder) -> None:
     intel = merging.load_map(maps_folder / "intel.yaml")
     raster = merging.load_map(maps_folder / "intel_raster.yaml")
