@@ -168,26 +168,19 @@ def test_the_slide_is_held_when_the_refinement_comes_back(returned: float, held:
     assert asked_within == [params.slide_return_cells]
 
 
-def test_a_held_turn_leaves_the_slide_to_pin_the_placement() -> None:
-    params = DEFAULT_PARAMS.confidence
-    check = Verification(agreement=1.0, conflict=0.0, overlap=2000.0, agreeing=2000.0,
-                         shared_space=5000.0)  # fmt: skip
-    slid, turned = pinned_factors(PINNED, params)
-    assert turned < 0.5 < slid
-    loose = confidence_factors(check, strength=0.5, params=params, pinned=PINNED)
-    held = confidence_factors(check, strength=0.5, params=params, pinned=PINNED, turn_held=True)
-    assert loose[3] == pytest.approx(turned)
-    assert held[3] == pytest.approx(slid)
+EXACT_OVERLAP = Verification(agreement=1.0, conflict=0.0, overlap=2000.0, agreeing=2000.0,
+                             shared_space=5000.0)  # fmt: skip
+"""A large overlap whose walls all meet: only the constraint factor is in question."""
 
 
-def test_a_held_slide_leaves_the_turn_to_pin_the_placement_and_both_held_pin_it() -> None:
+@pytest.mark.parametrize("pinned", [PINNED, CHEAP_SLIDE])
+def test_what_is_held_leaves_the_other_to_pin_the_placement(pinned) -> None:
+    # The curvature (strength 0.5) is weaker than either; held both ways, it is pinned.
     params = DEFAULT_PARAMS.confidence
-    check = Verification(agreement=1.0, conflict=0.0, overlap=2000.0, agreeing=2000.0,
-                         shared_space=5000.0)  # fmt: skip
-    slid, turned = pinned_factors(CHEAP_SLIDE, params)
-    assert slid < 0.5 < turned
-    rate = partial(confidence_factors, check, strength=0.5, params=params, pinned=CHEAP_SLIDE)
-    assert rate()[3] == pytest.approx(slid)
+    slid, turned = pinned_factors(pinned, params)
+    rate = partial(confidence_factors, EXACT_OVERLAP, strength=0.5, params=params, pinned=pinned)
+    assert rate()[3] == pytest.approx(min(slid, turned))
+    assert rate(turn_held=True)[3] == pytest.approx(slid)
     assert rate(slide_held=True)[3] == pytest.approx(turned)
     assert rate(slide_held=True, turn_held=True)[3] == 1.0
 

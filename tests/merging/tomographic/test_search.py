@@ -197,45 +197,40 @@ def test_a_small_overlap_with_a_near_rival_optimum_is_refused(maps_folder) -> No
     assert transform_error(rival[1], pair.truth, pair.map2)[0] < 2.0
 
 
-def test_a_small_overlap_whose_turn_the_refinement_holds_is_accepted(maps_folder) -> None:
-    # Windows of intel sharing 3-15 % (bench_real_maps.py low-overlap --seed 4242, pair 13):
-    # the curvature holds the turn weakly (strength 3), yet started turned by 2 and 4
-    # cells either way the refinement comes back within about half a cell: accepted,
-    # a cell off. Asked to come back within a tenth of a cell, it is refused for the turn.
-    whole = merging.load_map(maps_folder / "intel.yaml").data
-    pair = cut_window_pairs(whole, count=14, overlap_range=(0.03, 0.15), rng=4242)[13]
+HELD_BY_THE_REFINEMENT = {
+    # Windows of intel sharing 3-15 % (bench_real_maps.py low-overlap --seed 4242, pair
+    # 13): the curvature holds the turn weakly (strength 3), yet started turned by 2 and
+    # 4 cells either way the refinement comes back within about half a cell: accepted, a
+    # cell off. Asked to come back within a tenth of a cell, it is refused for the turn.
+    "turn": ("intel", 4242, 13, "turn_return_cells", 0.1,
+             "the overlap is too short to hold map 2's turn"),
+    # Windows of fr079 (--seed 12345, pair 42): sliding 2 or 4 cells costs only 30 net
+    # cells and the curvature holds the turn weakly (strength 4), yet started slid in
+    # each direction, and turned, the refinement comes back within a tenth of a cell:
+    # accepted, a quarter of a cell off. Asked to come back from the slides within a
+    # hundredth of a cell, it is refused for the slide.
+    "slide": ("fr079", 12345, 42, "slide_return_cells", 0.01,
+              "only one wall or corridor to align on: started slid"),
+}  # fmt: skip
+"""Real low-overlap windows accepted only because the refinement comes back, by what it
+holds: (map, seed, pair, the measure and its strict setting, the strict refusal)."""
+
+
+@pytest.mark.parametrize("held", sorted(HELD_BY_THE_REFINEMENT))
+def test_a_small_overlap_the_refinement_holds_is_accepted(maps_folder, held: str) -> None:
+    name, seed, index, measure, strict_cells, refusal = HELD_BY_THE_REFINEMENT[held]
+    whole = merging.load_map(maps_folder / f"{name}.yaml").data
+    pair = cut_window_pairs(whole, count=index + 1, overlap_range=(0.03, 0.15), rng=seed)[index]
     result = merging.estimate_transform(pair.map1, pair.map2)
     assert result.accepted
     assert transform_error(result.matrix, pair.truth, pair.map2)[0] < 2.0
-    assert result.evidence["turn_return_cells"] < DEFAULT_PARAMS.confidence.turn_return_cells
-    strict = replace(
-        DEFAULT_PARAMS,
-        confidence=replace(DEFAULT_PARAMS.confidence, turn_return_cells=0.1),
+    assert result.evidence[measure] < getattr(DEFAULT_PARAMS.confidence, measure)
+    confidence = replace(DEFAULT_PARAMS.confidence, **{measure: strict_cells})
+    refused = merging.estimate_transform(
+        pair.map1, pair.map2, params=replace(DEFAULT_PARAMS, confidence=confidence)
     )
-    refused = merging.estimate_transform(pair.map1, pair.map2, params=strict)
     assert not refused.accepted
-    assert refused.reason.startswith("the overlap is too short to hold map 2's turn")
-
-
-def test_a_small_overlap_whose_slide_the_refinement_holds_is_accepted(maps_folder) -> None:
-    # Windows of fr079 sharing 3-15 % (bench_real_maps.py low-overlap --seed 12345, pair
-    # 42): sliding 2 or 4 cells costs only 30 net cells and the curvature holds the turn
-    # weakly (strength 4), yet started slid in each direction, and turned, the refinement
-    # comes back within a tenth of a cell: accepted, a quarter of a cell off. Asked to come
-    # back from the slides within a hundredth of a cell, it is refused for the slide.
-    whole = merging.load_map(maps_folder / "fr079.yaml").data
-    pair = cut_window_pairs(whole, count=43, overlap_range=(0.03, 0.15), rng=12345)[42]
-    result = merging.estimate_transform(pair.map1, pair.map2)
-    assert result.accepted
-    assert transform_error(result.matrix, pair.truth, pair.map2)[0] < 1.0
-    assert result.evidence["slide_return_cells"] < DEFAULT_PARAMS.confidence.slide_return_cells
-    strict = replace(
-        DEFAULT_PARAMS,
-        confidence=replace(DEFAULT_PARAMS.confidence, slide_return_cells=0.01),
-    )
-    refused = merging.estimate_transform(pair.map1, pair.map2, params=strict)
-    assert not refused.accepted
-    assert refused.reason.startswith("only one wall or corridor to align on: started slid")
+    assert refused.reason.startswith(refusal)
 
 
 def test_a_slide_return_stops_at_the_first_restart_that_strays() -> None:
