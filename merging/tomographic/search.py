@@ -487,12 +487,52 @@ def _judged_first(
     hypotheses: tuple[Hypothesis, ...],
     timings: dict[str, float],
 ) -> MergeResult:
-    """The verdict on the pool's first placement, held against the rest."""
+    """The verdict on the pool's first placement, held against the rest.
+
+    When the close fit's runner-up is why it is refused (its distinctiveness
+    factor below one half), the runner-ups that only lacked the narrow
+    refinement are dropped (:func:`_rivals_that_stay`) and the placement is
+    judged again against the rest.
+    """
     params = maps.params
-    runners_up = _runners_up(
-        pool, maps.second.points, (params.distinct_cells, params.robust.distinct_cells)
-    )
-    return _judged(maps, pool[0][1], runners_up, hypotheses, timings, compromise=True)
+    distances = (params.distinct_cells, params.robust.distinct_cells)
+    runners_up = _runners_up(pool, maps.second.points, distances)
+    result = _judged(maps, pool[0][1], runners_up, hypotheses, timings, compromise=True)
+    if result.accepted or result.evidence.get("close_distinct", 1.0) >= 0.5:
+        return result
+    staying = _rivals_that_stay(maps, pool)
+    if len(staying) == len(pool):
+        return result
+    runners_up = _runners_up(staying, maps.second.points, distances)
+    again = _judged(maps, staying[0][1], runners_up, hypotheses, timings, compromise=True)
+    return again if again.accepted else result
+
+
+def _rivals_that_stay(maps: _Maps, pool: list[Candidate]) -> list[Candidate]:
+    """The pool without the runner-ups that, refined as the winner was, land on it.
+
+    The schedule refines only its best few on its narrow fields
+    (:data:`merging.params.DEFAULT_STAGES`); a placement left on the wide
+    fields can lie 4-30 cells along a corridor from the winner, whose door or
+    cross wall the wide fields barely see, and explain about as much. Refined
+    on the narrow fields (:func:`_finished`), such a runner-up comes back to
+    within ``TomographicParams.distinct_cells`` of the winner: the same answer
+    unfinished, not a rival. Runner-ups are taken best first, and the first
+    that stays apart ends the walk (those after it are kept unrefined).
+    """
+    distinct = maps.params.distinct_cells
+    points = maps.second.points
+    best = pool[0][1]
+    kept = [pool[0]]
+    rest = pool[1:]
+    for k, candidate in enumerate(rest):
+        if _rms_between(candidate[1], best, points) > distinct:
+            finished = _finished(maps, candidate)
+            if _rms_between(finished[1], best, points) > distinct:
+                return kept + rest[k:]
+            continue
+        kept.append(candidate)
+    return kept
 
 
 def _close_alternative(maps: _Maps, pool: list[Candidate]) -> int | None:

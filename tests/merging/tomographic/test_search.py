@@ -233,6 +233,25 @@ def test_a_small_overlap_the_refinement_holds_is_accepted(maps_folder, held: str
     assert refused.reason.startswith(refusal)
 
 
+@pytest.mark.parametrize(("seed", "index"), [(12345, 48), (2026, 59)])
+def test_a_runner_up_that_only_lacked_the_narrow_fields_is_no_rival(
+    maps_folder, monkeypatch, seed: int, index: int
+) -> None:
+    # Windows of intel sharing 3-15 % (bench_real_maps.py low-overlap --seed SEED, pair
+    # INDEX): the runner-up 11-14 cells away, turned 4-5 degrees, was refined on the wide
+    # fields only and explains about as much; refined on, it lands on the winner. With
+    # it kept as a rival the placement is refused as ambiguous.
+    whole = merging.load_map(maps_folder / "intel.yaml").data
+    pair = cut_window_pairs(whole, count=index + 1, overlap_range=(0.03, 0.15), rng=seed)[index]
+    result = merging.estimate_transform(pair.map1, pair.map2)
+    assert result.accepted
+    assert transform_error(result.matrix, pair.truth, pair.map2)[0] < 1.0
+    monkeypatch.setattr(search, "_rivals_that_stay", lambda maps, pool: pool)
+    kept = merging.estimate_transform(pair.map1, pair.map2)
+    assert not kept.accepted
+    assert kept.reason.startswith("ambiguous: another placement about as good lies 1")
+
+
 def test_a_slide_return_stops_at_the_first_restart_that_strays() -> None:
     # A single straight wall: slid along it, the refinement stays where it was started.
     grid = np.full((60, 80), -1, dtype=np.int8)
