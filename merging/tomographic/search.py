@@ -449,13 +449,16 @@ def _bent_compromise(
     the two are taken for one answer: the placement halfway between them,
     refined on fields as wide as the bending (``TomographicParams.compromise``)
     to the best rigid compromise over the whole overlap, is judged against
-    the placements farther than that.
+    the placements farther than that. Asked only of a placement with the
+    walls meeting that the robust evidence asks (its ``agreeing`` factor
+    passing): for any other the compromise could not be vouched for either.
     """
     robust = maps.params.robust
     distance = evidence.get("tolerant_runner_up_distance_cells", np.inf)
     turn = evidence.get("tolerant_runner_up_turn_deg", np.inf)
     if (
         evidence.get("robust_margin", 1.0) >= 0.5
+        or evidence.get("robust_agreeing", 0.0) < 0.5
         or distance > robust.bent_rival_cells
         or turn > robust.bent_rival_deg
     ):
