@@ -426,7 +426,7 @@ def _merge_observed(
     if close is None:
         return result
     pool = [_finished(maps, pool[close]), *pool[:close], *pool[close + 1 :]]
-    alternative = _judged_first(maps, pool, hypotheses, timings)
+    alternative = _judged_first(maps, pool, hypotheses, timings, by_net=True)
     return alternative if alternative.accepted else result
 
 
@@ -489,24 +489,26 @@ def _judged_first(
     pool: list[Candidate],
     hypotheses: tuple[Hypothesis, ...],
     timings: dict[str, float],
+    *,
+    by_net: bool = False,
 ) -> MergeResult:
     """The verdict on the pool's first placement, held against the rest.
 
     When the close fit's runner-up is why it is refused (its distinctiveness
     factor below one half), the runner-ups that only lacked the narrow
     refinement are dropped (:func:`_rivals_that_stay`) and the placement is
-    judged again against the rest.
+    judged again against the rest. ``by_net``: see :func:`_runners_up`.
     """
     params = maps.params
     distances = (params.distinct_cells, params.robust.distinct_cells)
-    runners_up = _runners_up(pool, maps.second.points, distances)
+    runners_up = _runners_up(pool, maps.second.points, distances, by_net=by_net)
     result = _judged(maps, pool[0][1], runners_up, hypotheses, timings, compromise=True)
     if result.accepted or result.evidence.get("close_distinct", 1.0) >= 0.5:
         return result
     staying = _rivals_that_stay(maps, pool)
     if len(staying) == len(pool):
         return result
-    runners_up = _runners_up(staying, maps.second.points, distances)
+    runners_up = _runners_up(staying, maps.second.points, distances, by_net=by_net)
     again = _judged(maps, staying[0][1], runners_up, hypotheses, timings, compromise=True)
     return again if again.accepted else result
 
@@ -568,18 +570,33 @@ def _finished(maps: _Maps, candidate: Candidate) -> Candidate:
 
 
 def _runners_up(
-    pool: list[Candidate], points: NDArray[np.float64], distances: tuple[float, float]
+    pool: list[Candidate],
+    points: NDArray[np.float64],
+    distances: tuple[float, float],
+    *,
+    by_net: bool = False,
 ) -> tuple[Candidate | None, Candidate | None]:
     """The best candidates after the first that move ``points`` farther from where it
-    puts them than each of ``distances`` (cells RMS); None where there is none."""
+    puts them than each of ``distances`` (cells RMS); None where there is none.
+
+    With ``by_net``, the close fit's rival (the first) is the one of those farther than
+    ``distances[0]`` that explains the most net wall cells, wherever the ranking put it:
+    for a placement chosen by that measure (:func:`_close_alternative`), which the
+    ranking did not prefer, the rival that explains about as much is what makes it
+    ambiguous (a corridor whose doors repeat holds two exact fits of a small overlap,
+    which the ranking may put far apart).
+    """
     best = pool[0][1]
     found: list[Candidate | None] = [None, None]
     for candidate in pool[1:]:
         apart = _rms_between(candidate[1], best, points)
         for k, distance in enumerate(distances):
-            if found[k] is None and apart > distance:
+            if apart <= distance:
+                continue
+            current = found[k]
+            if current is None or (k == 0 and by_net and candidate[0].net > current[0].net):
                 found[k] = candidate
-        if all(entry is not None for entry in found):
+        if not by_net and all(entry is not None for entry in found):
             break
     return found[0], found[1]
 

@@ -10,7 +10,7 @@ import pytest
 import merging
 from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
-from merging.evidence.verify import prepare_map
+from merging.evidence.verify import Verification, prepare_map
 from merging.params import DEFAULT_PARAMS
 from merging.tomographic import search
 from merging.tomographic.correlate import _suppress, coarsen, translation_peaks
@@ -261,6 +261,25 @@ def test_a_slide_return_stops_at_the_first_restart_that_strays() -> None:
     strayed = search._slide_return(maps, np.eye(3), 0.5)
     assert strayed > 0.5
     assert search._slide_return(maps, np.eye(3), np.inf) >= strayed
+
+
+def test_a_close_alternative_is_held_against_the_rival_explaining_the_most() -> None:
+    # Two exact fits of a small overlap far apart (a corridor whose doors repeat) and a
+    # loose large overlap the ranking prefers: the close alternative's rival is the exact
+    # fit, which explains as much, not the loose one the ranking put first.
+    points = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    chosen = (Verification(0.99, 0.0, 520.0, 515.0), np.eye(3))
+    loose = (Verification(0.68, 0.25, 1200.0, 816.0), rigid_matrix(40.0, -30.0, 0.5))
+    exact = (Verification(1.0, 0.0, 505.0, 505.0), rigid_matrix(-360.0, 60.0, 0.0))
+    near = (Verification(0.99, 0.0, 518.0, 513.0), rigid_matrix(1.0, 0.0, 0.0))
+    pool = [chosen, loose, near, exact]
+    distances = (4.0, 10.0)
+    by_rank = search._runners_up(pool, points, distances)
+    assert by_rank[0] is loose and by_rank[1] is loose
+    by_net = search._runners_up(pool, points, distances, by_net=True)
+    assert by_net[0] is exact  # the near one is the same answer, closer than 4 cells
+    assert by_net[1] is loose  # the robust evidence's rival stays the best-ranked one
+    assert exact[0].net > loose[0].net
 
 
 def test_a_whole_building_refined_both_ways_lands_in_one_place() -> None:
