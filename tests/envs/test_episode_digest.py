@@ -14,7 +14,9 @@ picks its kernels by the CPU's instruction set (its AVX-512 sine, cosine and sum
 round differently from its AVX2 ones) and OpenBLAS its matrix products, and the last
 bits of a pose decide where a ray hits. The digest was recorded on AVX2 machines, so
 the episode is run in a child process held to those kernels
-(:data:`KERNEL_ENVIRONMENT`) and is the same on any x86-64 machine with AVX2.
+(:data:`KERNEL_ENVIRONMENT`) and is the same on any x86-64 machine with AVX2 (for
+the NumPy and SciPy releases it was recorded with: another release may round
+differently too).
 """
 
 from __future__ import annotations
@@ -81,7 +83,10 @@ def kernel_environment() -> dict[str, str] | None:
     ``X86_V4`` and the ``AVX512*`` ones, by whichever names this NumPy gives them) and
     OpenBLAS is told its CPU is a Haswell (``OPENBLAS_CORETYPE``).
     """
-    from numpy._core import _multiarray_umath as umath
+    try:
+        from numpy._core import _multiarray_umath as umath
+    except ImportError:  # NumPy 1.x
+        from numpy.core import _multiarray_umath as umath  # type: ignore[no-redef]
 
     features = umath.__cpu_features__
     if not (features.get("AVX2") and features.get("FMA3")):

@@ -272,6 +272,7 @@ def test_a_close_alternative_is_held_against_the_rival_explaining_the_most() -> 
     loose = (Verification(0.68, 0.25, 1200.0, 816.0), rigid_matrix(40.0, -30.0, 0.5))
     exact = (Verification(1.0, 0.0, 505.0, 505.0), rigid_matrix(-360.0, 60.0, 0.0))
     near = (Verification(0.99, 0.0, 518.0, 513.0), rigid_matrix(1.0, 0.0, 0.0))
+    assert exact[0].net > loose[0].net
     pool = [chosen, loose, near, exact]
     distances = (4.0, 10.0)
     by_rank = search._runners_up(pool, points, distances)
@@ -279,7 +280,6 @@ def test_a_close_alternative_is_held_against_the_rival_explaining_the_most() -> 
     by_net = search._runners_up(pool, points, distances, by_net=True)
     assert by_net[0] is exact  # the near one is the same answer, closer than 4 cells
     assert by_net[1] is loose  # the robust evidence's rival stays the best-ranked one
-    assert exact[0].net > loose[0].net
 
 
 def test_a_whole_building_refined_both_ways_lands_in_one_place() -> None:
