@@ -133,6 +133,12 @@ Candidate = tuple[Verification, NDArray[np.float64]]
 """A hypothesis and its verification."""
 
 
+def _image_settings(params: TomographicParams) -> tuple[Any, ...]:
+    """The settings map 1's fields, coarse images and angular spectra are made with."""
+    translation = params.translation
+    return (params.rotation, params.gauss_newton, translation.wall_blur, translation.free_penalty)
+
+
 def rank(check: Verification) -> float:
     """The score hypotheses are ranked by (:attr:`Verification.score`)."""
     return check.score
@@ -157,13 +163,11 @@ class _Maps:
         """``begun``: another search of the same map 1, whose images of it are reused."""
         self.first, self.second, self.params = first, second, params
         if begun is not None:
-            kept = ("translation", "rotation", "gauss_newton")
-            if begun.first is not first or any(
-                getattr(begun.params, name) != getattr(params, name) for name in kept
-            ):
+            if begun.first is not first or _image_settings(begun.params) != _image_settings(params):
                 raise ValueError(
                     "a search reuses another's images of map 1 only for the same map 1 "
-                    "and the same translation, rotation and gauss_newton settings"
+                    "and the same rotation and gauss_newton settings, wall_blur and "
+                    "free_penalty"
                 )
             self.smoothed = begun.smoothed
             self.coarse_first = begun.coarse_first
@@ -648,7 +652,13 @@ def _mirror_search(
         )
         margin = params.verify.conflict_clearance + widest
         part = mirrored_part(maps.first, maps.second, best, margin=margin, params=params.verify)
-        lighter = replace(params, stages=params.mirror_stages)
+        lighter = replace(
+            params,
+            stages=params.mirror_stages,
+            translation=replace(
+                params.translation, significant_peaks=params.mirror_significant_peaks
+            ),
+        )
         ground = twin_ground(maps.first, part, params=params.verify)
         if ground is None:
             twin_maps = _Maps(maps.first, part.mirrored, lighter, begun=maps)

@@ -303,3 +303,19 @@ def test_a_turn_held_only_by_a_sharp_optimum_is_checked_both_ways(maps_folder) -
     result = merging.estimate_transform(pair.map1, pair.map2)
     assert "reverse_gap_cells" in result.evidence
     assert not result.accepted or transform_error(result.matrix, pair.truth, pair.map2)[0] < 2.0
+
+
+def test_a_search_of_the_same_map_1_reuses_its_images_whatever_the_shifts_it_keeps() -> None:
+    # The search for the mirror image keeps fewer shifts per rotation
+    # (mirror_significant_peaks) and still starts from the first search's fields and
+    # coarse images of map 1; images made with other settings are not reused.
+    grid = synthetic_building(8)
+    first, second = prepare_map(grid), prepare_map(turned(grid, 20.0, (5.0, -3.0))[0])
+    maps = search._Maps(first, second, DEFAULT_PARAMS)
+    fewer = replace(DEFAULT_PARAMS.translation, significant_peaks=0)
+    twin = search._Maps(first, second, replace(DEFAULT_PARAMS, translation=fewer), begun=maps)
+    assert twin.smoothed is maps.smoothed and twin.coarse_first is maps.coarse_first
+    translation = DEFAULT_PARAMS.translation
+    blurred = replace(translation, wall_blur=2 * translation.wall_blur)
+    with pytest.raises(ValueError, match="wall_blur"):
+        search._Maps(first, second, replace(DEFAULT_PARAMS, translation=blurred), begun=maps)
