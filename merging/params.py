@@ -335,7 +335,11 @@ class ConfidenceParams:
         of the evidence and at most 77 % (a corridor entering ``aces3``'s
         round hall, now refused; the next, a plain corridor, 72 %); of the 18
         half-turned placements across that hall (the low-overlap suite of
-        ``scripts/bench_real_maps.py`` and the tests), 83-97 %.
+        ``scripts/bench_real_maps.py`` and the tests), 83-97 %. The factor
+        caps the confidence of the way it tests rather than multiplying it
+        (:mod:`merging.evidence.verdict`), so a placement is refused in the
+        mirror's name only when the factor itself is below ``accept``: the
+        mirror image explaining more than about 73 % of the evidence.
     strength_scale : float
         Constraint strength (matching cells per cell² of motion along the
         weakest direction, :func:`merging.evidence.refine.constraint_strength`) at which

@@ -16,7 +16,12 @@ image (:mod:`merging.evidence.mirror`): if the mirrored map, laid on the same
 overlap, explains nearly as much, the shared part looks the same in a mirror
 and the placement cannot be told from the mirror twin of that part in a
 mirror-symmetric building, so it is refused. The mirrored map is searched
-for only then, since the search costs as much as the first.
+for only then, since the search costs as much as the first. The mirror
+check is a test of evidence already vouched for, not one more measure of
+the fit: each way's confidence is at most the mirror factor, and a clear
+pass leaves it as it was (a product would dent a placement vouched for
+narrowly, even where its mirror image explains under half as much, and
+refuse it in the mirror's name).
 
 A refused result says why in words (:func:`refusal_reason`): too little
 overlap, ambiguous between two placements a given distance apart or with the
@@ -139,7 +144,8 @@ def judge(
     each by ``ConfidenceParams.mirror_margin`` of its evidence in its
     overlap (:func:`merging.evidence.mirror.mirror_share`), counted as that way
     counts it: the close fit at the tolerance it used, conflicts weighing
-    against; the robust evidence as walls met within its tolerance.
+    against; the robust evidence as walls met within its tolerance. That
+    way's confidence is then the smaller of its own and the mirror factor.
     ``turn_returns``, when given, says how far (cells RMS over map 2's
     walls) the narrow refinement ends from ``best`` when restarted from
     ``best`` turned a little about the overlap; it is called only for a
@@ -265,7 +271,8 @@ def judge(
         )
         chiral = _mirror_factor(share, params)
         evidence.update({"mirror_share": share, "close_mirror": chiral})
-        close *= chiral
+        # A test of the vouched evidence, not a sixth factor of its fit (module docstring).
+        close = min(close, chiral)
         evidence["close_confidence"] = close
     robust = 0.0
     robust_scores: dict[str, float] = {}
