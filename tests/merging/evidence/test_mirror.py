@@ -10,6 +10,7 @@ import pytest
 
 import merging
 from merging.evaluation.metrics import transform_error
+from merging.evaluation.pairs import cut_window_pairs
 from merging.evidence.mirror import (
     MirrorCandidates,
     mirror_share,
@@ -197,14 +198,14 @@ def test_a_narrow_vouch_is_not_refused_in_the_mirrors_name(maps_folder) -> None:
     # constraint is weak), and map 2 seen in a mirror explains under half of the
     # evidence, a clear pass. The mirror check caps the confidence; as a sixth factor of
     # the fit it took the last thousandth off and refused the pair in the mirror's name.
-    from merging.evaluation.pairs import cut_window_pairs
-
+    # (The suite cuts 50 pairs; the first 20 of the same seed are the same pairs.)
     whole = merging.load_map(maps_folder / "intel.yaml").data
     pair = cut_window_pairs(whole, count=20, overlap_range=(0.15, 0.20), rng=41)[19]
     result = merging.estimate_transform(pair.map1, pair.map2)
     assert transform_error(result.matrix, pair.truth, pair.map2)[0] < 1.0
     assert result.evidence["mirror_share"] < 0.5
-    assert 0.6 <= result.evidence["close_confidence"] < result.evidence["close_mirror"]
+    accept = DEFAULT_PARAMS.confidence.accept
+    assert accept <= result.evidence["close_confidence"] < result.evidence["close_mirror"]
     # What does hold it back is said: refined the other way round, it lands 0.7 cells
     # away, which takes it just under the threshold.
     assert result.reason != MIRROR_REASON
