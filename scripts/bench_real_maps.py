@@ -36,6 +36,14 @@ Methods by default: ``tomographic`` (the default merger), ``orb`` and ``sift``
 ``multirobot_map_merge`` pipeline with OpenCV), which are skipped, with the
 install command, when OpenCV is absent.
 
+``--from-truth`` adds a row per pair with a known transform, method
+``from_truth``: the default's refinement and verdict started at the true
+transform (:func:`merging.tomographic.search.refine_from`), with no search. It
+tells a miss of the search from a pair whose overlap cannot vouch for any
+placement: what the verdict accepts there bounds what a better search could
+add. It is a bound from above in one respect only, as it skips the two checks
+that need a search (the best different placement, map 2's mirror image).
+
 Usage::
 
     python scripts/bench_real_maps.py sessions
@@ -43,6 +51,7 @@ Usage::
     python scripts/bench_real_maps.py low-overlap --pairs-per-map 75
     python scripts/bench_real_maps.py moderate-overlap --seed 41
     python scripts/bench_real_maps.py sessions --methods tomographic --every 3   # a quick look
+    python scripts/bench_real_maps.py low-overlap --methods tomographic --from-truth
 """
 
 from __future__ import annotations
@@ -63,6 +72,7 @@ from numpy.typing import NDArray
 import merging
 from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
+from merging.tomographic.search import refine_from
 from merging.transforms import rigid_matrix
 from tomosim.commands.script_args import non_negative_int, run_script
 from tomosim.data import maps_dir, maps_missing
@@ -70,6 +80,8 @@ from tomosim.data import maps_dir, maps_missing
 DEFAULT_METHODS = ("tomographic", "orb", "sift", "ros_akaze", "ros_orb")
 OPENCV_METHODS = ("ros_akaze", "ros_orb")
 OPENCV_INSTALL = 'pip install "tomosim[opencv]"'
+FROM_TRUTH = "from_truth"
+"""The row of ``--from-truth``: the default's verdict on its refinement of the true transform."""
 WINDOW_RIGHT_CELLS = 2.0
 """A window merge is right within this RMS error, as in ``bench_merge.py``."""
 CROP_RIGHT_CELLS = 1.0
@@ -216,8 +228,13 @@ def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle) ->
     for count, case in enumerate(cases, start=1):
         default_matrix = None
         for method in methods:
+            if method == FROM_TRUTH and case.truth is None:
+                continue
             start, cpu_start = time.perf_counter(), time.process_time()
-            result = merging.estimate_transform(case.map1, case.map2, method=method, rng=seed)
+            if method == FROM_TRUTH:
+                result = refine_from(case.map1, case.map2, case.truth)
+            else:
+                result = merging.estimate_transform(case.map1, case.map2, method=method, rng=seed)
             seconds = time.perf_counter() - start
             cpu_seconds = time.process_time() - cpu_start
             cells2 = getattr(case.map2, "data", case.map2)
@@ -323,6 +340,12 @@ def main(argv: list[str] | None = None) -> int:
         help="sessions: every n-th E5 pair (an odd n keeps both the even and the odd half)",
     )
     parser.add_argument("--seed", type=non_negative_int, default=2026)
+    parser.add_argument(
+        "--from-truth",
+        action="store_true",
+        help=f"add a row '{FROM_TRUTH}' per pair with a known transform: the default's "
+        "verdict on its refinement started at the truth (what a perfect search would give)",
+    )
     parser.add_argument("--out", type=Path, default=Path("results/bench_real_maps"))
     args = parser.parse_args(argv)
     if maps_dir() is None:
@@ -337,6 +360,8 @@ def main(argv: list[str] | None = None) -> int:
         print("error: --every and --pairs-per-map must be positive integers", file=sys.stderr)
         return 2
     methods = available(list(args.methods))
+    if args.from_truth:
+        methods.append(FROM_TRUTH)
     if args.suite == "sessions":
         cases = session_cases(args.every)
     elif args.suite == "whole":

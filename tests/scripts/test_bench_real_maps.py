@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import csv
+import io
+
+from tests.merging.builders import synthetic_building, turned
 from tests.support import load_script
 
 
@@ -39,3 +43,26 @@ def test_the_window_suites_cut_the_shares_they_name(maps_folder, monkeypatch) ->
         low, high = round(overlap[0] * 100), round(overlap[1] * 100)
         assert {case.group for case in cases} == {f"windows sharing {low}-{high} %"}
         assert {case.suite for case in cases} == {suite}
+
+
+def test_from_truth_rows_judge_the_truth_and_skip_pairs_without_one() -> None:
+    bench = load_script("bench_real_maps")
+    building = synthetic_building(5)
+    map2, truth = turned(building, 30.0, (4.0, -3.0))
+    cases = [
+        bench.Case("s", "known", "turned", building, map2, truth, 2.0),
+        bench.Case("s", "unknown", "same", building, building, None, 0.0),
+    ]
+    handle = io.StringIO()
+    writer = csv.DictWriter(handle, fieldnames=list(bench.Row.__dataclass_fields__))
+    rows = bench.run(iter(cases), ["tomographic", bench.FROM_TRUTH], 0, writer, handle)
+    assert [(r.pair, r.method) for r in rows] == [
+        ("turned", "tomographic"),
+        ("turned", bench.FROM_TRUTH),
+        ("same", "tomographic"),
+    ]
+    judged = rows[1]
+    # Refined from the truth itself, the building's walls hold it: accepted, in place.
+    assert judged.accepted and judged.right == "yes" and judged.rms_cells < 0.5
+    # The search finds the same placement: the two rows lie within a cell of each other.
+    assert rows[0].accepted and judged.from_default_cells < 1.0
