@@ -418,22 +418,6 @@ class ConfidenceParams:
         refused. Allowed a whole cell, one more came back (0.99) and was
         accepted 2.5 cells off; 0.75 was set on the first ten seeds, the
         last five were drawn after.
-    slide_settled_share : float
-        A slid restart that ends farther than ``slide_return_cells`` still
-        lets the slide count as held when the placement it settles on
-        explains at least this share less than the placement judged (net
-        wall cells, :attr:`merging.evidence.verify.Verification.net`): it
-        fell into a worse optimum, not onto a second answer. Along a
-        corridor with nothing across it the restarts stay where they
-        started and lose nothing. On the low-overlap seeds 2026, 4242 and
-        1717 of ``scripts/bench_real_maps.py`` 26 right placements asked
-        had a restart end farther; for 19 of them every such restart lost
-        13 % to 290 % of the placement's net cells (for the rest at most
-        5 %), for the 4 wrong ones at most 2.3 %. A flat 30 cells instead
-        of a share accepted a placement 4.3 cells off on seed 44444, whose
-        restarts settled 3.4 cells away losing 4.2 %. Above 1 only restarts
-        that end with more conflicting walls than agreeing ones can be set
-        aside.
     return_fit : float
         The fit quality (agreeing minus weighted conflicting walls, as the
         fit factor counts it) a placement needs for the refinement's coming
@@ -497,7 +481,6 @@ class ConfidenceParams:
     turn_scale: float = 15.0
     turn_return_cells: float = 1.0
     slide_return_cells: float = 0.75
-    slide_settled_share: float = 0.1
     return_fit: float = 0.95
     reverse_gap_cells: float = 2.0
     reverse_gap_width: float = 0.25
@@ -519,7 +502,6 @@ class ConfidenceParams:
                 "turn_scale",
                 "turn_return_cells",
                 "slide_return_cells",
-                "slide_settled_share",
                 "reverse_gap_cells",
                 "reverse_gap_width",
                 "max_lever",
