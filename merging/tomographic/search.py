@@ -817,14 +817,26 @@ class _TurnedRestarts:
 def _slide_return(maps: _Maps, best: NDArray[np.float64], within: float) -> float:
     """How far (cells RMS over map 2's walls) the narrow refinement ends from ``best`` when
     restarted from ``best`` slid by each small move :func:`merging.evidence.pinning.pinning`
-    tries, the farthest moves first; stops at the first end farther than ``within``."""
+    tries, the farthest moves first; stops at the first end farther than ``within``.
+
+    A restart that ends farther, where the maps still explain more than
+    they contradict but at least ``ConfidenceParams.slide_settled_share``
+    less than at ``best`` (net wall cells), fell into a worse optimum: it is
+    left out, as one that came back. One that ends in conflict (net at most
+    zero) stayed out of the narrow field's reach and still counts.
+    """
     points = maps.second.points
+    held = maps.verify(best).net
+    worse = held - maps.params.confidence.slide_settled_share * abs(held)
     farthest = 0.0
     for move in reversed(slides(maps.params.confidence)):
         start = (maps.verify(move @ best), move @ best)
         for stage in maps.params.stages[1:]:
             start = maps.refine(start, stage, keep=False)
-        farthest = max(farthest, _rms_between(start[1], best, points))
+        distance = _rms_between(start[1], best, points)
+        if distance > within and 0.0 < start[0].net <= worse:
+            continue
+        farthest = max(farthest, distance)
         if farthest > within:
             break
     return farthest
