@@ -380,14 +380,13 @@ def slide_is_held(
     ``params.slide_return_cells``; it may stop at the first farther)? A
     restart that settles where the maps explain ``params.slide_settled_share``
     less, but more than they contradict, fell into a worse optimum and counts
-    as back. A corridor with
-    nothing across it does not come back: the narrow fields are flat along
-    it, and the restarts lose nothing. Asked only when it can change the verdict: the factors fall
-    short of ``params.accept``, the slide is what holds the constraint back
-    (the turn held, by its own factor or by :func:`turn_is_held`: ``turn_held``),
-    and the walls meet closely (``fit_quality`` at least
-    ``params.return_fit``). Adds the farthest end, as
-    ``slide_return_cells``, to ``measures`` when asked.
+    as back. A corridor with nothing across it does not come back: the narrow
+    fields are flat along it, and the restarts lose nothing. Asked only when
+    it can change the verdict: the factors fall short of ``params.accept``,
+    the slide is what holds the constraint back (the turn held, by its own
+    factor or by :func:`turn_is_held`: ``turn_held``), and the walls meet
+    closely (``fit_quality`` at least ``params.return_fit``). Adds the
+    farthest end, as ``slide_return_cells``, to ``measures`` when asked.
     """
     slid, turned = pinned_factors(pinned, params)
     turned = 1.0 if turn_held else turned
