@@ -41,8 +41,8 @@ install command, when OpenCV is absent.
 transform (:func:`merging.tomographic.search.refine_from`), with no search. It
 tells a miss of the search from a pair whose overlap cannot vouch for any
 placement: what the verdict accepts there bounds what a better search could
-add. It is a bound from above in one respect only, as it skips the two checks
-that need a search (the best different placement, map 2's mirror image).
+add. It accepts a little more than a perfect search would, as it skips the two
+checks that need a search (the best different placement, map 2's mirror image).
 
 Usage::
 
@@ -344,7 +344,8 @@ def main(argv: list[str] | None = None) -> int:
         "--from-truth",
         action="store_true",
         help=f"add a row '{FROM_TRUTH}' per pair with a known transform: the default's "
-        "verdict on its refinement started at the truth (what a perfect search would give)",
+        "verdict on its refinement started at the truth (a bound on what a better search "
+        "could add; it skips the checks that need a search)",
     )
     parser.add_argument("--out", type=Path, default=Path("results/bench_real_maps"))
     args = parser.parse_args(argv)
