@@ -17,14 +17,19 @@ space, so a shift that lays map 2's walls across map 1's open rooms loses.
 The target mass a shift collects grows with how many of map 2's walls land
 on map 1's observed part, so a shift laying a large part of map 2 loosely on
 map 1 collects more than one laying a small part exactly, and maps that
-share 3-15 % of their area lose their true shift among the loose ones. So
-besides the shifts collecting the most mass, the search keeps those most
-*significant*: each shift's mass divided by a power of the number of map
-2's wall blocks landing on map 1's observed blocks
-(``TranslationParams.overlap_power``; one more FFT correlation, with map 1's
-observed blocks). At one half that is the mean agreement of the landing
-walls times the square root of their number, which neither the loose large
-overlap nor one lucky block wins.
+share 3-15 % of their area lose their true shift among the loose ones. The
+target only holds map 1's side of the evidence: a loose large overlap also
+lays map 1's walls in map 2's clear free space, where map 2's lidar saw
+through. So besides the shifts collecting the most mass, the search keeps
+those most *significant*: the mass less ``TranslationParams.reverse_penalty``
+for each of map 1's wall blocks landing on a block of map 2 that is clear
+free space throughout (:func:`clear_blocks`). Both terms are correlations
+with the shift, so their spectra are summed and one inverse transform gives
+the surface; the check costs one more forward transform per rotation, of map
+2's clear blocks. On maps that share most of their area the strongest shifts
+by mass stay first: sessions of one floor drawn months apart disagree on
+furniture, doors and a bend of the corridors, which the reverse count, as
+the only ranking, held against their true shift.
 """
 
 from __future__ import annotations
@@ -61,16 +66,16 @@ class CoarseMap:
         1 where a block holds an occupied cell.
     points : (M, 2) float ndarray
         ``(x, y)`` block indices of the blocks holding walls.
-    known : (rows, cols) float32 ndarray
-        1 where a block is observed (its centre cell is known, or it holds
-        a wall).
+    clear_points : (K, 2) float ndarray
+        ``(x, y)`` block indices of the blocks clear free space throughout
+        (:func:`clear_blocks`).
     """
 
     factor: int
     target: NDArray[np.float32]
     walls: NDArray[np.float32]
     points: NDArray[np.float64]
-    known: NDArray[np.float32]
+    clear_points: NDArray[np.float64]
     _spectra: dict[tuple[str, tuple[int, int]], NDArray[np.complex64]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -79,9 +84,9 @@ class CoarseMap:
         """``rfft2`` of ``target`` zero-padded to ``size``, kept for the next rotation."""
         return self._spectrum("target", self.target, size)
 
-    def known_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
-        """``rfft2`` of ``known`` zero-padded to ``size``, kept for the next rotation."""
-        return self._spectrum("known", self.known, size)
+    def walls_spectrum(self, size: tuple[int, int]) -> NDArray[np.complex64]:
+        """``rfft2`` of ``walls`` zero-padded to ``size``, kept for the next rotation."""
+        return self._spectrum("walls", self.walls, size)
 
     def _spectrum(
         self, name: str, image: NDArray[np.float32], size: tuple[int, int]
@@ -137,19 +142,39 @@ def coarsen(
     centre = factor // 2
     sampled = prepared.clear_free[centre::factor, centre::factor]
     clear[: sampled.shape[0], : sampled.shape[1]] = sampled
-    known = walls.copy()
-    observed = prepared.cells[centre::factor, centre::factor] >= 0
-    known[: observed.shape[0], : observed.shape[1]] += observed
-    np.minimum(known, 1.0, out=known)
     # np.nonzero of a 2-D array is several times slower than this, in the same order.
     wall_rows, wall_cols = np.divmod(np.flatnonzero(walls), shape[1])
     blurred = blur_walls(wall_rows, wall_cols, shape, params.wall_blur)
     blurred /= max(float(blurred.max()), 1e-9)
     target = (blurred - params.free_penalty * clear).astype(np.float32)
     points = np.column_stack([wall_cols, wall_rows]).astype(np.float64)
-    for image in (target, walls, points, known):
+    clear_rows, clear_cols = np.divmod(np.flatnonzero(clear_blocks(prepared, factor)), shape[1])
+    clear_points = np.column_stack([clear_cols, clear_rows]).astype(np.float64)
+    for image in (target, walls, points, clear_points):
         image.setflags(write=False)  # map 1's are shared with a second search
-    return CoarseMap(factor, target, walls, points, known)
+    return CoarseMap(factor, target, walls, points, clear_points)
+
+
+def clear_blocks(prepared: PreparedMap, factor: int) -> NDArray[np.bool_]:
+    """Blocks of ``factor`` x ``factor`` cells that are clear free space throughout.
+
+    Judged at the block's four corner cells and its centre cell: a wall's
+    band of cells that are not clear (the wall, the cells near it and the
+    clearance beyond, :attr:`merging.evidence.verify.PreparedMap.clear_free`)
+    is wider than half a block on the coarse grids the search uses, so it
+    cannot pass between them. On blocks 12 cells wide, those of a whole
+    floor, the centre cell alone calls a block clear that holds a wall.
+    """
+    rows, cols = prepared.shape
+    shape = (-(-rows // factor), -(-cols // factor))
+    last, centre = factor - 1, factor // 2
+    clear = np.ones(shape, dtype=bool)
+    for row, col in ((0, 0), (0, last), (last, 0), (last, last), (centre, centre)):
+        sampled = np.zeros(shape, dtype=bool)
+        cells = prepared.clear_free[row::factor, col::factor]
+        sampled[: cells.shape[0], : cells.shape[1]] = cells
+        clear &= sampled
+    return clear
 
 
 def translation_peaks(
@@ -160,8 +185,7 @@ def translation_peaks(
     count: int,
     suppression: int = DEFAULT_TRANSLATION.peak_suppression,
     significant: int = 0,
-    overlap_power: float = DEFAULT_TRANSLATION.overlap_power,
-    min_overlap_blocks: float = DEFAULT_TRANSLATION.min_overlap_blocks,
+    reverse_penalty: float = DEFAULT_TRANSLATION.reverse_penalty,
 ) -> tuple[list[Peak], list[Peak]]:
     """Best translations of ``second``, rotated by ``theta`` and by ``theta + π``, onto ``first``.
 
@@ -170,7 +194,8 @@ def translation_peaks(
     of the rotated map: turned by a further half turn it is the same image
     mirrored through its centre, whose correlation with map 1 is the
     *convolution* of map 1's target with the unmirrored image, shifted by the
-    image's extent. Both surfaces come from one forward transform of map 2.
+    image's extent. Both surfaces come from one forward transform of map 2's
+    walls (and one of its clear blocks for the significant shifts).
 
     Parameters
     ----------
@@ -183,11 +208,12 @@ def translation_peaks(
     suppression : int
         Coarse cells around a peak within which weaker peaks are dropped.
     significant : int
-        Further peaks per rotation, of the collected mass divided by the
-        number of map 2's wall blocks landing on map 1's observed blocks to
-        the power ``overlap_power`` (at least ``min_overlap_blocks``), away
-        from the first ``count`` (see the module docstring).
-    overlap_power, min_overlap_blocks : float
+        Further peaks per rotation, of the collected mass less
+        ``reverse_penalty`` per wall block of map 1 landing on a clear block
+        of map 2, away from the first ``count`` (see the module docstring).
+        Clear blocks outside the turned image of map 2's walls (open space
+        past its last wall) are left out.
+    reverse_penalty : float
         See ``significant``.
 
     Returns
@@ -219,18 +245,13 @@ def translation_peaks(
     convolution = fft.irfft2(target * forward, s=size)
     surfaces = [correlation, convolution]
     if significant > 0:
-        known = first.known_spectrum(size)
-        # Scaled by map 2's whole mass to the same power, so that a shift laying all
-        # of map 2 on map 1's observed part keeps its collected mass.
-        scale = mass**overlap_power
-        for surface, spectrum in ((correlation, backward), (convolution, forward)):
-            # In place: scale / max(landing, min_overlap_blocks) ** power * surface.
-            land = fft.irfft2(known * spectrum, s=size)
-            np.maximum(land, min_overlap_blocks, out=land)
-            _raise_to(land, overlap_power)
-            np.divide(scale, land, out=land)
-            land *= surface
-            surfaces.append(land)
+        # Map 1's walls on map 2's clear blocks, laid as the walls are (the correlation)
+        # and half-turned (the convolution, below), less than the mass collected.
+        clear = padded_rfft2(_clear_image(second, theta, low, extent), size)
+        clear *= np.float32(reverse_penalty)
+        walls = first.walls_spectrum(size)
+        surfaces.append(fft.irfft2(target * backward - walls * np.conj(clear), s=size))
+        surfaces.append(fft.irfft2(target * forward - walls * clear, s=size))
     # Turned a further half turn, a point in cell c of this image lies at -rotated,
     # in cell -rotated - low_twin = extent - c of the twin's image: correlating with
     # that mirrored image at shift s is convolving with this one at s + extent.
@@ -252,17 +273,17 @@ def translation_peaks(
     return turns[0], turns[1]
 
 
-def _raise_to(values: NDArray[np.float32], power: float) -> None:
-    """``values ** power`` in place, for positive ``values``.
-
-    The default power, one half, is taken as a square root: three times
-    faster than ``np.power`` and equal to it to the bit on every positive
-    ``float32`` (checked on all of them; both are correctly rounded there).
-    """
-    if power == 0.5:
-        np.sqrt(values, out=values)
-    else:
-        np.power(values, power, out=values)
+def _clear_image(
+    second: CoarseMap, theta: float, low: NDArray[np.float64], extent: NDArray[np.intp]
+) -> NDArray[np.float32]:
+    """Map 2's clear blocks turned by ``theta``, in the frame of its turned walls' image
+    (corner ``low``, last ``(x, y)`` at ``extent``); those outside it are left out."""
+    turned = second.clear_points @ rigid_matrix(0.0, 0.0, theta)[:2, :2].T
+    cells = np.rint(turned - low).astype(np.intp)
+    cells = cells[(cells >= 0).all(axis=1) & (cells <= extent).all(axis=1)]
+    image = np.zeros((int(extent[1]) + 1, int(extent[0]) + 1), dtype=np.float32)
+    image[cells[:, 1], cells[:, 0]] = 1.0
+    return image
 
 
 class Peak(NamedTuple):
@@ -275,9 +296,9 @@ class Peak(NamedTuple):
     mass : float
         Target mass collected per wall block of map 2.
     significance : float
-        That mass divided by the number of map 2's wall blocks landing on
-        map 1's observed blocks to ``overlap_power``, times map 2's wall
-        blocks to it (:func:`translation_peaks`; the mass when not computed).
+        That mass less ``reverse_penalty`` per wall block of map 1 landing
+        on a clear block of map 2, per wall block of map 2
+        (:func:`translation_peaks`; the mass when not computed).
     """
 
     matrix: NDArray[np.float64]

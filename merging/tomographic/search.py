@@ -281,8 +281,7 @@ def _translation_hypotheses(
             count=params.translation.peaks,
             suppression=params.translation.peak_suppression,
             significant=params.translation.significant_peaks,
-            overlap_power=params.translation.overlap_power,
-            min_overlap_blocks=params.translation.min_overlap_blocks,
+            reverse_penalty=params.translation.reverse_penalty,
         )
         for peaks in turns:
             candidates += peaks

@@ -48,7 +48,7 @@ from merging.tomographic.angular import (
     rotation_correlation,
     rotation_peaks,
 )
-from merging.tomographic.correlate import _raise_to
+from merging.tomographic.correlate import clear_blocks
 from merging.tomographic.search import refine_from
 from merging.transforms import apply_transform, cells_to_metres, rigid_matrix
 from tests.merging.builders import synthetic_building, turned
@@ -393,15 +393,17 @@ def test_landing_codes_hold_each_mask_in_its_bit(building: np.ndarray) -> None:
     assert codes.max() <= KNOWN_BIT | NEAR_BIT | CLEAR_BIT
 
 
-@pytest.mark.parametrize("power", [0.5, 0.4, 1.0])
-def test_significance_power_matches_numpy_to_the_bit(power: float) -> None:
-    # Positive float32 bit patterns from the smallest subnormal to the largest finite.
-    generator = np.random.default_rng(11)
-    bits = generator.integers(1, 0x7F800000, size=200_000, dtype=np.uint32)
-    values = np.concatenate([bits.view(np.float32), np.float32([4.0, 5.0, 1e6])])
-    raised = values.copy()
-    _raise_to(raised, power)
-    assert np.array_equal(raised.view(np.uint32), np.power(values, power).view(np.uint32))
+def test_clear_blocks_are_clear_at_their_corners_and_centre(building: np.ndarray) -> None:
+    prepared = prepare_map(building)
+    assert np.array_equal(clear_blocks(prepared, 1), prepared.clear_free)
+    blocks = clear_blocks(prepared, 4)
+    assert blocks.shape == (-(-building.shape[0] // 4), -(-building.shape[1] // 4))
+    for row, col in zip(*np.nonzero(blocks), strict=True):
+        cells = prepared.clear_free[4 * row : 4 * row + 4, 4 * col : 4 * col + 4]
+        assert cells[0, 0] and cells[0, -1] and cells[-1, 0] and cells[-1, -1] and cells[2, 2]
+    # A block holding a wall is never clear.
+    walls = prepared.walls.astype(np.intp) // 4
+    assert not blocks[walls[:, 1], walls[:, 0]].any()
 
 
 def test_curvature_is_kept_for_the_same_placement_only(building: np.ndarray) -> None:
