@@ -158,12 +158,13 @@ def coarsen(
 def clear_blocks(prepared: PreparedMap, factor: int) -> NDArray[np.bool_]:
     """Blocks of ``factor`` x ``factor`` cells that are clear free space throughout.
 
-    Judged at the block's four corner cells and its centre cell: a wall's
-    band of cells that are not clear (the wall, the cells near it and the
-    clearance beyond, :attr:`merging.evidence.verify.PreparedMap.clear_free`)
-    is wider than half a block on the coarse grids the search uses, so it
-    cannot pass between them. On blocks 12 cells wide, those of a whole
-    floor, the centre cell alone calls a block clear that holds a wall.
+    Judged at the block's four corner cells and its centre cell: a long
+    wall's band of cells that are not clear (the wall, the cells near it and
+    the clearance beyond, :attr:`merging.evidence.verify.PreparedMap.clear_free`;
+    seven cells wide with the default verification settings) is wider than
+    half a block up to blocks of 12 cells, those of a whole floor, so it
+    cannot pass between them. On such blocks the centre cell alone calls a
+    block clear that holds a wall.
     """
     rows, cols = prepared.shape
     shape = (-(-rows // factor), -(-cols // factor))

@@ -56,7 +56,8 @@ Steps
    180° twins.
 2. Translation: for each rotation, the strongest peaks of the pooled
    projection correlation, with map 1's open space counted against map 2's
-   walls.
+   walls, and the most significant: with map 1's walls counted against map
+   2's clear space too.
 3. Screening: every hypothesis carries each map's walls into the other.
 4. Refinement: the schedule of :class:`~merging.params.RefineStage` rows,
    each refining fewer candidates on finer fields.
