@@ -138,7 +138,11 @@ class TeamConfig:
         before the pair links maps (1: use an estimate as soon as it is
         accepted): a single wrong match, which would make a robot plan
         through walls, rarely repeats itself in the next round, which sees
-        more of both maps (:class:`~tomosim.team.merger.TeamMerger`).
+        more of both maps (:class:`~tomosim.team.merger.TeamMerger`). A
+        round whose estimate is a track kept below the confidence a new
+        placement needs (``tracker.keep_confidence``) holds a pair's run but
+        does not lengthen it: the track refined its own placement, and a
+        wrong one holds as well as the round before on maps that barely grew.
     confirm_rotation_deg : float
         Degrees two rounds' estimates of one pair may differ by and still
         confirm each other: odometry drift moves an estimate by well under a

@@ -12,7 +12,11 @@ for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
    transform does not jump between rounds. A search's placement starts a
    track only when it also fits closely (``new_track_quality``); a track
    is kept at a lower confidence than a new placement needs
-   (``keep_confidence``);
+   (``keep_confidence``), and a track kept below that is marked
+   :data:`~tomosim.team.merger.HELD_ONLY`: it keeps a link, but the merger
+   does not count it as a round confirming one (the track refined its own
+   placement; a wrong one, on maps that barely grew, holds as well as it
+   did the round before);
 3. submits a new global search, for the next round, when nothing could be
    tracked and either map gained walls since the pair's last search
    (``search_growth``, ``search_min_new_walls``: a pair refused on the same
@@ -55,6 +59,7 @@ from merging.result import MergeResult
 from merging.tomographic.tracking import frame_matrix, frame_to_cells, track_transform
 from merging.validators import RngLike, as_generator
 from tomosim.team.config import TeamConfig
+from tomosim.team.merger import HELD_ONLY
 from tomosim.team.worker import Searches, searches
 
 SEED_BOUND = 2**31
@@ -226,6 +231,8 @@ class TrackingEstimator:
                 best = tracked
         walls = (self._wall_count(first, grid_1), self._wall_count(second, grid_2))
         if best is not None:
+            if best.confidence < DEFAULT_PARAMS.confidence.accept:  # kept, not found again
+                best = replace(best, evidence={**best.evidence, HELD_ONLY: 1.0})
             state.tracked = frame_matrix(best)
             state.rounds_tracked = 0 if found is not None else state.rounds_tracked + 1
             if state.rounds_tracked >= self.config.tracker.search_every_rounds:  # 3. again

@@ -14,7 +14,10 @@ A merge round
    estimate that is not accepted is never used, and one accepted only once
    is not used yet: a single wrong match, which would make a robot plan
    through walls, rarely repeats itself in the next round, which sees more
-   of both maps;
+   of both maps. An estimate whose evidence says it was held only at a
+   kept link's lower threshold (:data:`HELD_ONLY`) keeps a pair's run of
+   rounds but does not lengthen it: a placement refined from itself on maps
+   that barely grew repeats its own evidence, and confirms nothing;
 3. links the maps through the confirmed pairs (:func:`merging.link_maps`, with
    the team's ``linking`` settings): a consistent spanning forest, each
    robot's frame placed in its group's root robot's frame;
@@ -62,6 +65,11 @@ RoundStart = Callable[[Sequence[OccupancyGrid]], None]
 any pair is estimated."""
 RoundWanted = Callable[[Sequence[OccupancyGrid]], bool]
 """``round_wanted(grids)``: whether the pair estimator could link maps in a round now."""
+HELD_ONLY = "held_only"
+"""Key of ``MergeResult.evidence`` set (to 1.0) by a pair estimator whose estimate is
+accepted only at the lower threshold at which a link, once made, is kept (the tracker's
+``keep_confidence``): it holds the pair's run of consistent rounds but does not count as
+a round of it (module docstring, step 2)."""
 
 
 def robot_name(index: int) -> str:
@@ -290,7 +298,12 @@ class TeamMerger:
 
     def confirm(self, pair: tuple[int, int], result: MergeResult) -> int:
         """Step 2: take in this round's estimate of ``pair``; returns its run of consistent
-        accepted rounds (0 when not accepted). Call once per pair and round."""
+        accepted rounds (0 when not accepted). Call once per pair and round.
+
+        An estimate held only at a kept link's threshold (:data:`HELD_ONLY`),
+        consistent with the run, leaves the run as it was; one that is not
+        consistent starts a new run of one.
+        """
         metres = result.matrix_metres
         if not result.accepted or metres is None or not np.all(np.isfinite(metres)):
             self._streaks.pop(pair, None)
@@ -301,7 +314,8 @@ class TeamMerger:
             rotation <= self.config.confirm_rotation_deg
             and translation <= self.config.confirm_translation_m
         )
-        streak = count + 1 if count and consistent else 1
+        held_only = bool(result.evidence.get(HELD_ONLY))
+        streak = (count if held_only else count + 1) if count and consistent else 1
         self._streaks[pair] = (streak, np.asarray(metres, dtype=np.float64))
         return streak
 

@@ -10,6 +10,7 @@ import pytest
 from merging.tomographic.tracking import METHOD as TRACKED
 from tomosim.exploration import FrontierPolicy
 from tomosim.team import TeamConfig, TeamSession, TrackingParams
+from tomosim.team.merger import HELD_ONLY
 from tomosim.team.quality import RoundQuality
 from tomosim.team.worker import InlineSearches, WorkerSearches, searches
 from tomosim.worlds import generate_floorplan
@@ -267,7 +268,11 @@ def test_a_track_is_kept_at_a_confidence_a_new_placement_would_not_reach(
     assert estimator(0, 1, grid, grid).accepted  # collects it: the track starts at 0.9
     between = (INLINE.tracker.keep_confidence + DEFAULT_PARAMS.confidence.accept) / 2
     confidence["now"] = between
-    assert estimator(0, 1, grid, grid).accepted  # the track is kept
+    kept = estimator(0, 1, grid, grid)
+    assert kept.accepted  # the track is kept, marked as held only: it confirms nothing
+    assert kept.evidence.get(HELD_ONLY) == 1.0
+    confidence["now"] = DEFAULT_PARAMS.confidence.accept
+    assert HELD_ONLY not in estimator(0, 1, grid, grid).evidence  # found again in full
     confidence["now"] = INLINE.tracker.keep_confidence - 0.01
     lost = estimator(0, 1, grid, grid)
     assert not lost.accepted  # and dropped below the keeping threshold
@@ -379,3 +384,4 @@ def test_pairs_linked_through_tracks_wait_for_the_next_round(
     for i, j in ((0, 1), (0, 2), (1, 2)):
         other(i, j, small, small)
     assert not other.round_wanted(grids)
+

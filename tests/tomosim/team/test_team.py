@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -25,6 +26,7 @@ from tomosim.team import (
     teammate_layer,
     true_relative,
 )
+from tomosim.team.merger import HELD_ONLY
 from tomosim.worlds import World, generate_floorplan
 
 SMALL_FLOOR = {"width": 12.0, "height": 9.0}
@@ -98,6 +100,18 @@ def test_confirmation_needs_consecutive_consistent_acceptances() -> None:
     assert merger.confirm(pair, fake_result((1.1, 2.0, 0.51 + 0.17), accepted=True)) == 1
     assert merger.confirm(pair, fake_result((1.1, 2.0, 0.68), accepted=False)) == 0
     assert merger.confirm(pair, fake_result((1.1, 2.0, 0.68), accepted=True)) == 1
+
+
+def test_an_estimate_held_only_at_the_keeping_threshold_confirms_nothing() -> None:
+    merger = TeamMerger(TeamConfig(confirmations=2), rng=0)
+    pair = (0, 1)
+    held = replace(fake_result((1.0, 2.0, 0.5), accepted=True), evidence={HELD_ONLY: 1.0})
+    assert merger.confirm(pair, fake_result((1.0, 2.0, 0.5), accepted=True)) == 1
+    assert merger.confirm(pair, held) == 1  # the run is held, not lengthened
+    assert merger.confirm(pair, fake_result((1.0, 2.0, 0.5), accepted=True)) == 2
+    assert merger.confirm(pair, held) == 2  # a confirmed link stays confirmed
+    jumped = replace(held, matrix_metres=pose_matrix((4.0, 2.0, 0.5)))
+    assert merger.confirm(pair, jumped) == 1  # a different placement starts a new run
 
 
 def test_the_confirmation_tolerances_are_team_settings() -> None:
