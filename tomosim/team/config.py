@@ -82,7 +82,8 @@ class TrackingParams:
         whose maps are not linked re-explore what the other has seen, so the
         link is worth a round; pairs linked through teammates already wait.
         The worker process and the session's share these searches, so the
-        session waits for them.
+        session waits for them. Such a search ran on the round's own maps,
+        so its verdict is taken as it is, not refined and judged again.
     """
 
     search_every_rounds: int = 4

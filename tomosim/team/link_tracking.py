@@ -9,7 +9,11 @@ for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
    (the last one accepted) and the collected search's, if accepted
    (:func:`merging.tomographic.tracking.track_transform`), and returns the better of those
    accepted: a linked pair costs a refinement, not a search, and its
-   transform does not jump between rounds. A search's placement starts a
+   transform does not jump between rounds. A search run on this round's
+   maps themselves (a pair searched at the round's start) is taken as it
+   is: refining its placement again on the same maps, without the rivals
+   the search held it against, can only settle on a nearby optimum that
+   fits less well than the one the search's own refinement reached. A search's placement starts a
    track only when it also fits closely (``new_track_quality``); a track
    is kept at a lower confidence than a new placement needs
    (``keep_confidence``), and a track kept below that is marked
@@ -80,6 +84,8 @@ class _PairState:
     pending: Future[MergeResult] | None = None
     search_due: bool = False
     """A search is wanted and left to the start of the next round (:meth:`prepare`)."""
+    search_on_round_maps: bool = False
+    """The pending search runs on the maps of the round that collects it (:meth:`prepare`)."""
 
 
 def _walls(grid: OccupancyGrid) -> int:
@@ -179,6 +185,7 @@ class TrackingEstimator:
         self._urgent = frozenset(unlinked)
         for (i, j), walls in self._due_now(grids, unlinked):
             self._submit(self._pairs[(i, j)], grids[i], grids[j], walls)
+            self._pairs[(i, j)].search_on_round_maps = True
 
     def round_wanted(self, grids: Sequence[OccupancyGrid], talks: Talks | None = None) -> bool:
         """Whether a round now could link maps not linked yet: a pair whose maps no track
@@ -216,12 +223,20 @@ class TrackingEstimator:
             found = self._searches.wait(state.pending, [f for f in later if f is not None])
             state.pending = None
             state.last = found
+        on_these_maps = found is not None and state.search_on_round_maps
+        state.search_on_round_maps = False
         starts = [] if state.tracked is None else [(state.tracked, self._keep_params)]
         searched = None if found is None or not found.accepted else frame_matrix(found)
-        if searched is not None:
-            starts.append((searched, DEFAULT_PARAMS))
         best = None
         loose = None
+        if searched is not None and on_these_maps:  # the search's own verdict on these maps
+            assert found is not None
+            if self._fits_closely(found):
+                best = found
+            else:
+                loose = found
+        elif searched is not None:
+            starts.append((searched, DEFAULT_PARAMS))
         for start, params in starts:  # 2. refine and verify on today's maps
             tracked = track_transform(grid_1, grid_2, start, params=params)
             if start is searched and tracked.accepted and not self._fits_closely(tracked):
@@ -305,6 +320,7 @@ class TrackingEstimator:
         """Start a global search whose result the pair's next round collects."""
         seed = int(self._rng.integers(SEED_BOUND))
         state.pending = self._searches.submit(grid_1, grid_2, method=self.method, seed=seed)
+        state.search_on_round_maps = False
         state.walls_at_search = walls
         state.rounds_tracked = 0
         state.search_due = False

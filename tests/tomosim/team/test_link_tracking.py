@@ -318,7 +318,9 @@ def counting_search(monkeypatch: pytest.MonkeyPatch, quality: float = 0.9) -> li
 
     def search(*args: object, rng: int, **kwargs: object) -> MergeResult:
         seeds.append(rng)
-        return MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+        return MergeResult(
+            placed, 0.9, True, "tomographic", matrix_metres=placed, evidence={"quality": quality}
+        )
 
     monkeypatch.setattr(worker_module, "estimate_transform", search)
     verdict = MergeResult(placed, 0.9, True, TRACKED, placed, evidence={"quality": quality})
@@ -385,3 +387,27 @@ def test_pairs_linked_through_tracks_wait_for_the_next_round(
         other(i, j, small, small)
     assert not other.round_wanted(grids)
 
+
+def test_a_search_at_the_rounds_start_is_taken_as_it_found_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from tomosim.team import link_tracking as tracking_module
+
+    seeds = counting_search(monkeypatch)
+    placed = np.eye(3)
+    # Refined again on the same maps, without the search's rivals, the placement is refused.
+    refused = MergeResult(placed, 0.55, False, TRACKED, placed, evidence={"quality": 0.9})
+    monkeypatch.setattr(tracking_module, "track_transform", lambda *a, **k: refused)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(INLINE, rng=0)
+    estimator.prepare([grid, grid])
+    found = estimator(0, 1, grid, grid)
+    assert found.accepted and found.method == "tomographic"  # the search's own verdict
+    assert estimator.tracked_groups(2) == (0, 0)
+    estimator.prepare([grid, grid])  # tracked: no search at the next round's start
+    assert len(seeds) == 1
+    lost = estimator(0, 1, grid, grid)  # the track, verified on that round's maps
+    assert not lost.accepted
+    assert estimator.tracked_groups(2) == (0, 1)
