@@ -62,7 +62,9 @@ class MergeResult:
         where that fits better), ``matching_wall_cells``,
         ``shared_open_cells``, ``strength``, ``margin``,
         ``runner_up_distance_cells`` and ``runner_up_turn_deg`` against the
-        best different placement (``tolerant_margin`` and
+        best different placement (and, when refused, ``runner_up_same_walls``:
+        the share of the walls the placement aligns that it lays on the same
+        walls again; ``tolerant_margin`` and
         ``tolerant_runner_up_*`` against the best one beyond the bending of
         separate sessions, which the robust evidence holds it against),
         the factors ``close_*`` and, when the close fit fails, ``robust_*``

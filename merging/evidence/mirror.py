@@ -229,12 +229,12 @@ def region_net(
     """
     weight = params.conflict_weight if conflict_weight is None else conflict_weight
     masks1, masks2 = _masks(first, tolerance, params), _masks(second, tolerance, params)
-    rows, cols = _landing_cells(apply_transform(matrix, second.points), first.shape)
+    rows, cols = landing_cells(apply_transform(matrix, second.points), first.shape)
     keep = region[rows, cols]
     forward = _net(masks1, rows[keep], cols[keep], weight) * second.point_weight
     inside = region[first.points[:, 1].astype(np.intp), first.points[:, 0].astype(np.intp)]
     carried = apply_transform(np.linalg.inv(matrix), first.points[inside])
-    rows, cols = _landing_cells(carried, second.shape)
+    rows, cols = landing_cells(carried, second.shape)
     backward = _net(masks2, rows, cols, weight) * first.point_weight
     return forward + backward
 
@@ -367,7 +367,7 @@ def _lands_on(
     return out
 
 
-def _landing_cells(
+def landing_cells(
     points: NDArray[np.float64], shape: tuple[int, int]
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Rows and columns of the cells ``(x, y)`` points land on, those inside ``shape`` only."""

@@ -39,7 +39,7 @@ from functools import partial
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.evidence.mirror import MirrorCandidates, mirror_share
+from merging.evidence.mirror import MirrorCandidates, landing_cells, mirror_share
 from merging.evidence.pinning import lever_arm, pinning
 from merging.evidence.refine import SmoothedMap, constraint_strength, turning_strength
 from merging.evidence.robust import (
@@ -53,6 +53,7 @@ from merging.evidence.verify import (
     PreparedMap,
     Verification,
     confidence_factors,
+    dilate,
     pinned_factors,
     verify,
 )
@@ -308,6 +309,10 @@ def judge(
         # Either way vouched until held against the mirror image: that is why.
         reason = MIRROR_REASON
     else:
+        if runner_up is not None:
+            evidence["runner_up_same_walls"] = same_walls(
+                first, second, best, runner_up[1], radius=params.verify.near_radius
+            )
         reason = refusal_reason(factors, robust_scores, evidence)
     bent = robust >= accept and robust > close
     loose = accepted and not bent and close >= accept and curvature < params.confidence.pin_below
@@ -488,6 +493,45 @@ def _robust(
 
 REASON_ORDER = ("fit", "support", "constraint", "distinct", "space")
 """The close-fit factors in the order a refusal names them when several fail."""
+SAME_WALLS = 0.5
+"""Share of map 2's walls that the runner-up lays where the placement lays them (within
+``near_radius``), below which the runner-up is another place rather than the same walls
+laid again (:func:`refusal_reason`)."""
+
+
+def same_walls(
+    first: PreparedMap,
+    second: PreparedMap,
+    best: NDArray[np.float64],
+    rival: NDArray[np.float64],
+    *,
+    radius: int,
+) -> float:
+    """Share of the walls ``best`` aligns that ``rival`` lays on the same walls again.
+
+    Of map 2's wall points that ``best`` (map 2 cells -> map 1 cells) lays on
+    map 1's walls (its agreeing points), the share that ``rival`` lays within
+    ``radius`` cells (chessboard) of where ``best`` lays one of them: near 1
+    when the rival slides the aligned walls along themselves or turns them
+    end for end onto themselves, near 0 when it lays them elsewhere.
+    """
+    rows, cols = landing_cells(apply_transform(best, second.points), first.shape)
+    inside = _inside(apply_transform(best, second.points), first.shape)
+    agreeing = first.near_occupied[rows, cols]
+    if not np.any(agreeing):
+        return 0.0
+    aligned = second.points[inside][agreeing]
+    placed = np.zeros(first.shape, dtype=np.bool_)
+    placed[rows[agreeing], cols[agreeing]] = True
+    moved = apply_transform(rival, aligned)
+    rows, cols = landing_cells(moved, first.shape)
+    return float(np.count_nonzero(dilate(placed, radius)[rows, cols])) / len(aligned)
+
+
+def _inside(points: NDArray[np.float64], shape: tuple[int, int]) -> NDArray[np.bool_]:
+    """Which ``(x, y)`` points land, to the nearest cell, inside a grid of ``shape``."""
+    cols, rows = np.rint(points[:, 0]), np.rint(points[:, 1])
+    return (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
 
 
 def refusal_reason(
@@ -506,11 +550,26 @@ def refusal_reason(
     (``turn_return_cells`` in ``evidence``) and did not come back, an overlap
     too short to hold the turn (:func:`turn_reason`), or, restarted slid a
     little (``slide_return_cells``), a corridor it slides along
-    (:func:`slide_reason`).
+    (:func:`slide_reason`). A weak constraint gives way to a failing
+    distinctiveness when neither restart was tried and the rival lays
+    map 2's walls elsewhere (``runner_up_same_walls`` below
+    :data:`SAME_WALLS`, :func:`same_walls`): along one straight wall the rival
+    is the wall laid on itself the other way, and the slide is the news; a
+    rival off those walls is another place the maps may show.
     """
     values = dict(zip(CLOSE_FACTORS, close, strict=True))
     failing = [name for name in REASON_ORDER if values[name] < 0.5]
     cause = failing[0] if failing else min(values, key=lambda name: values[name])
+    restarted = "slide_return_cells" in evidence or "turn_return_cells" in evidence
+    if (
+        cause == "constraint"
+        and "distinct" in failing
+        and not restarted
+        and evidence.get("runner_up_same_walls", 1.0) < SAME_WALLS
+    ):
+        # The rival lies elsewhere, not along the walls the placement aligns: no slide
+        # was tried, and the rival refuses the placement whatever its slide would show.
+        cause = "distinct"
     few_walls = little_space = False
     competitor = ""  # the close fit's runner-up; "tolerant_" for the robust way's
     if cause == "fit" and robust:

@@ -5,16 +5,23 @@ from __future__ import annotations
 
 from functools import partial
 
+import numpy as np
 import pytest
 
 from merging.evidence.verdict import (
     CLOSE_FACTORS,
     refusal_reason,
     reverse_reason,
+    same_walls,
     slide_is_held,
     turn_is_held,
 )
-from merging.evidence.verify import Verification, confidence_factors, pinned_factors
+from merging.evidence.verify import (
+    Verification,
+    confidence_factors,
+    pinned_factors,
+    prepare_map,
+)
 from merging.params import DEFAULT_PARAMS
 
 PASS, FAIL = 0.9, 0.1
@@ -57,6 +64,47 @@ def test_a_refusal_names_its_cause(
 ) -> None:
     passing = dict.fromkeys(robust and ("margin", "agreeing", "open_share", "strength"), PASS)
     assert words in refusal_reason(factors, {**passing, **robust}, RIVAL)
+
+
+@pytest.mark.parametrize(
+    ("same_walls", "restarted", "words"),
+    [
+        # The rival lays the aligned walls elsewhere and no slide was tried: the rival.
+        (0.1, {}, "ambiguous: another placement about as good lies 100 cells away"),
+        # The rival lays them on themselves again (one wall turned end for end): the slide.
+        (0.9, {}, "only one wall or corridor to align on: the maps could slide"),
+        # A slide tried and not come back from is named whatever the rival.
+        (0.1, {"slide_return_cells": 2.46}, "started slid a little along it"),
+    ],
+)
+def test_a_rival_elsewhere_is_named_before_an_untried_slide(
+    same_walls: float, restarted: dict[str, float], words: str
+) -> None:
+    evidence = {
+        "runner_up_distance_cells": 100.0,
+        "runner_up_turn_deg": 89.0,
+        "runner_up_same_walls": same_walls,
+        **restarted,
+    }
+    assert words in refusal_reason(close(constraint=0.45, distinct=0.2), {}, evidence)
+
+
+def test_same_walls_tells_a_wall_laid_on_itself_from_a_rival_elsewhere() -> None:
+    cells = np.full((80, 120), -1, dtype=np.int8)
+    cells[20:60, :] = 0
+    cells[40, 10:110] = 100  # one straight wall...
+    cells[20:40, 100] = 100  # ... and a short cross wall at one end
+    first = prepare_map(cells)
+    second = prepare_map(cells)
+    best = np.eye(3)
+    # Turned end for end about the wall's middle (x = 59.5, y = 40): the long wall lies
+    # on itself again, the cross wall lands at the other end, away from any wall.
+    flipped = np.array([[-1.0, 0.0, 119.0], [0.0, -1.0, 80.0], [0.0, 0.0, 1.0]])
+    elsewhere = np.array([[0.0, -1.0, 70.0], [1.0, 0.0, -40.0], [0.0, 0.0, 1.0]])
+    on_itself = same_walls(first, second, best, flipped, radius=1)
+    assert 0.7 < on_itself < 1.0
+    assert same_walls(first, second, best, elsewhere, radius=1) < 0.3
+    assert same_walls(first, second, best, best, radius=1) == 1.0
 
 
 def test_turns_of_several_degrees_are_plural() -> None:
