@@ -23,12 +23,13 @@ grid ``k``'s cells to its frame (:meth:`OccupancyGrid.cell_to_world_matrix`).
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from merging import available_methods
 from merging.grid import OccupancyGrid
 from merging.result import MergeResult
 from merging.validators import one_of
+from tomosim.frames import pose_matrix
 from tomosim.team.merger import PairEstimator
 from tomosim.team.quality import true_relative
 
@@ -46,22 +47,33 @@ def check_team_method(method: object) -> str:
     return one_of(method, team_methods(), what="merging method")
 
 
-def oracle_estimator(starts: ArrayLike) -> PairEstimator:
+def oracle_estimator(
+    starts: ArrayLike, *, error_deg: float = 0.0, error_m: float = 0.0
+) -> PairEstimator:
     """A pair estimator returning the true transforms between the robots' map frames.
 
     Parameters
     ----------
     starts : (N, 3) array_like
         The robots' true start poses ``(x, y, theta)`` in the world.
+    error_deg, error_m : float
+        A fixed error per pair (:func:`pair_error`): the transform turned by
+        ``error_deg`` degrees and robot ``j``'s start moved by ``error_m``
+        metres (0, 0: the truth).
     """
     poses = np.array(starts, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3 or not np.all(np.isfinite(poses)):
         raise ValueError(f"starts must be a finite (N, 3) array of poses, got shape {poses.shape}")
+    for value, name in ((error_deg, "error_deg"), (error_m, "error_m")):
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
     def estimate(i: int, j: int, grid_i: OccupancyGrid, grid_j: OccupancyGrid) -> MergeResult:
         if not (0 <= i < len(poses) and 0 <= j < len(poses)):
             raise ValueError(f"robots ({i}, {j}) out of range for {len(poses)} start poses")
         metres = true_relative(poses[i], poses[j])
+        if error_deg or error_m:
+            metres = metres @ pair_error(i, j, error_deg, error_m)
         into_i = np.linalg.inv(grid_i.cell_to_world_matrix())
         cells = into_i @ metres @ grid_j.cell_to_world_matrix()
         return MergeResult(
@@ -73,3 +85,19 @@ def oracle_estimator(starts: ArrayLike) -> PairEstimator:
         )
 
     return estimate
+
+
+def pair_error(i: int, j: int, error_deg: float, error_m: float) -> NDArray[np.float64]:
+    """The fixed error of pair ``(i, j)``: a rigid matrix, in robot ``j``'s map frame, that
+    turns by ``error_deg`` degrees (its sign) and shifts by ``error_m`` metres (its
+    direction) drawn from a generator seeded with the pair, so a run repeats itself.
+
+    Applied on the right of the true transform, it moves ``j``'s start ``error_m``
+    metres from the truth and turns ``j``'s frame ``error_deg`` degrees
+    (:func:`tomosim.frames.frame_errors` gives back exactly those).
+    """
+    draw = np.random.default_rng((int(i), int(j)))
+    direction = float(draw.uniform(0.0, 2.0 * np.pi))
+    sign = 1.0 if draw.random() < 0.5 else -1.0
+    shift = (error_m * np.cos(direction), error_m * np.sin(direction))
+    return pose_matrix((shift[0], shift[1], sign * np.radians(error_deg)))

@@ -182,7 +182,11 @@ class TeamSession:
         method = self.config.method
         base: PairEstimator | None = tracker
         if method == ORACLE:
-            base = oracle_estimator(self.simulation.start_poses)
+            base = oracle_estimator(
+                self.simulation.start_poses,
+                error_deg=self.config.oracle_error_deg,
+                error_m=self.config.oracle_error_m,
+            )
         if self.config.comms.unlimited:
             return base
 

@@ -70,6 +70,40 @@ def test_the_oracles_transforms_equal_the_truth(world: World) -> None:
             )
 
 
+def test_an_oracle_with_an_error_is_off_by_exactly_that_error(world: World) -> None:
+    config = TeamConfig(
+        method=ORACLE, merge_interval=MERGE_INTERVAL, oracle_error_deg=0.4, oracle_error_m=0.1
+    )
+    session = run_session(world, config, 2 * MERGE_INTERVAL)
+    scored = session.last_quality
+    assert scored is not None
+    for pair in scored.pairs:
+        assert pair.rotation_error_deg == pytest.approx(0.4, abs=1e-6)
+        assert pair.translation_error_m == pytest.approx(0.1, abs=1e-6)
+    # Fixed per pair: the next round repeats it, and the pairs' errors point different ways.
+    merge = session.last_merge
+    assert merge is not None
+    again = run_session(world, config, 2 * MERGE_INTERVAL).last_merge
+    assert again is not None
+    directions = set()
+    for pair, repeated in zip(merge.pairs, again.pairs, strict=True):
+        np.testing.assert_allclose(pair.result.matrix_metres, repeated.result.matrix_metres)
+        starts = session.simulation.start_poses
+        truth = true_relative(starts[pair.first], starts[pair.second])
+        shift = pair.result.matrix_metres[:2, 2] - truth[:2, 2]
+        directions.add(round(float(np.arctan2(shift[1], shift[0])), 3))
+    assert len(directions) == len(merge.pairs)
+
+
+def test_the_oracles_error_is_validated() -> None:
+    with pytest.raises(ValueError, match="oracle_error_m"):
+        TeamConfig(method=ORACLE, oracle_error_m=-0.1)
+    with pytest.raises(ValueError, match="error_deg"):
+        oracle_estimator(np.zeros((2, 3)), error_deg=float("nan"))
+    with pytest.raises(ValueError, match="need method='oracle'"):
+        TeamConfig(oracle_error_deg=0.4)
+
+
 def test_the_oracle_needs_start_poses_and_is_a_team_method() -> None:
     with pytest.raises(ValueError, match="starts must be"):
         oracle_estimator(np.zeros((2, 2)))
