@@ -516,22 +516,17 @@ def same_walls(
     end for end onto themselves, near 0 when it lays them elsewhere.
     """
     rows, cols = landing_cells(apply_transform(best, second.points), first.shape)
-    inside = _inside(apply_transform(best, second.points), first.shape)
     agreeing = first.near_occupied[rows, cols]
     if not np.any(agreeing):
         return 0.0
-    aligned = second.points[inside][agreeing]
+    rows, cols = rows[agreeing], cols[agreeing]
     placed = np.zeros(first.shape, dtype=np.bool_)
-    placed[rows[agreeing], cols[agreeing]] = True
-    moved = apply_transform(rival, aligned)
+    placed[rows, cols] = True
+    # Where the rival lays the same points: rival after best's inverse, from their cells.
+    aligned = np.column_stack([cols, rows]).astype(np.float64)
+    moved = apply_transform(rival @ np.linalg.inv(best), aligned)
     rows, cols = landing_cells(moved, first.shape)
     return float(np.count_nonzero(dilate(placed, radius)[rows, cols])) / len(aligned)
-
-
-def _inside(points: NDArray[np.float64], shape: tuple[int, int]) -> NDArray[np.bool_]:
-    """Which ``(x, y)`` points land, to the nearest cell, inside a grid of ``shape``."""
-    cols, rows = np.rint(points[:, 0]), np.rint(points[:, 1])
-    return (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
 
 
 def refusal_reason(
