@@ -11,9 +11,9 @@ for :class:`~tomosim.team.merger.TeamMerger`. Per pair and round it
    accepted: a linked pair costs a refinement, not a search, and its
    transform does not jump between rounds. A search run on this round's
    maps themselves (a pair searched at the round's start) is taken as it
-   is: refining its placement again on the same maps, without the rivals
-   the search held it against, can only settle on a nearby optimum that
-   fits less well than the one the search's own refinement reached. A search's placement starts a
+   judged them: refining its placement again on the same maps, without the
+   rivals and restarts the search held it against, may settle on a nearby
+   optimum that fits less well and be refused. A search's placement starts a
    track only when it also fits closely (``new_track_quality``); a track
    is kept at a lower confidence than a new placement needs
    (``keep_confidence``), and a track kept below that is marked
