@@ -409,13 +409,25 @@ def test_an_unwritable_recording_is_one_clear_error(tmp_path: Path) -> None:
 
 def free_port() -> int:
     """A TCP port nobody listens on right now."""
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
+    return free_ports(1)[0]
+
+
+def free_ports(count: int) -> list[int]:
+    """``count`` different TCP ports nobody listens on right now: the probes stay bound
+    until all are drawn, or the system may hand the same port out twice."""
+    probes = [socket.socket() for _ in range(count)]
+    try:
+        for probe in probes:
+            probe.bind(("127.0.0.1", 0))
+        return [int(probe.getsockname()[1]) for probe in probes]
+    finally:
+        for probe in probes:
+            probe.close()
 
 
 def test_serve_web_hosts_a_viewer_for_a_browser(tmp_path: Path) -> None:
-    live = LiveViewer("serve-web", grpc_port=free_port(), web_port=free_port())
+    grpc_port, web_port = free_ports(2)
+    live = LiveViewer("serve-web", grpc_port=grpc_port, web_port=web_port)
     sinks = Sinks(tmp_path / "live.rrd", live)
     assert not (tmp_path / "live.rrd").exists()  # nothing is touched before the run starts
     try:
@@ -441,7 +453,8 @@ def test_serving_on_a_port_in_use_is_refused_before_the_run(
     with socket.socket() as holder:
         holder.bind(("0.0.0.0", 0))
         holder.listen()
-        ports = {"grpc_port": free_port(), "web_port": free_port()}
+        grpc_port, web_port = free_ports(2)
+        ports = {"grpc_port": grpc_port, "web_port": web_port}
         ports[taken] = int(holder.getsockname()[1])
         live = LiveViewer("serve-web", **ports)
         with pytest.raises(RecordingError, match=f"port {ports[taken]}: it is in use.*{option}"):
