@@ -80,7 +80,8 @@ def test_an_oracle_with_an_error_is_off_by_exactly_that_error(world: World) -> N
     for pair in scored.pairs:
         assert pair.rotation_error_deg == pytest.approx(0.4, abs=1e-6)
         assert pair.translation_error_m == pytest.approx(0.1, abs=1e-6)
-    # Fixed per pair: the next round repeats it, and the pairs' errors point different ways.
+    # Fixed per pair: a second run repeats it exactly, and the pairs' errors point
+    # different ways.
     merge = session.last_merge
     assert merge is not None
     again = run_session(world, config, 2 * MERGE_INTERVAL).last_merge
