@@ -434,7 +434,7 @@ class ConfidenceParams:
         For a close fit the curvature holds loosely (its constraint factor
         below ``pin_below``): how far (cells RMS over map 2's walls)
         refining the other way round, map 1 onto map 2, may land from it
-        before the confidence halves (``merging.tomographic.search._both_ways``):
+        before the confidence halves (:func:`merging.tomographic.restarts.both_ways`):
         the accuracy a merge is asked for. The two directions meet each
         other map's rasterised walls, so their answers straddle the truth
         and the placement reported lies halfway. On those ten seeds 681
@@ -548,7 +548,7 @@ class RobustParams:
         this (cells RMS over map 2's walls; 3 m at 0.05 m) and turned less
         than ``bent_rival_deg`` is judged again as one answer with it: the
         best rigid compromise over the whole overlap between the two
-        (``_bent_compromise`` in :mod:`merging.tomographic.search`), held
+        (:func:`merging.tomographic.judging.bent_compromise`), held
         against the placements farther than this. Sessions of a floor bend
         against each other by more than ``distinct_cells`` in places: the
         Halmstad F5 sessions refused as ambiguous had runner-ups 12-54
@@ -776,7 +776,7 @@ COMPROMISE = RefineStage(
     admit=1, refine=1, sigmas=(8.0, 4.0), iterations=15, points=3000, local=False
 )
 """Refining an accepted placement of maps that bend against each other to the best rigid
-compromise over the whole overlap (``_compromise`` in :mod:`merging.tomographic.search`): fields as
+compromise over the whole overlap (:func:`merging.tomographic.restarts.rigid_compromise`): fields as
 wide as the bending between sessions (up to half a metre, 10 cells at 0.05 m) and half
 that, over all of map 1, with twice the points of the other stages, as the parts that
 bend away are what the compromise weighs. On a third of the E5 session pairs (every
@@ -843,7 +843,7 @@ class TomographicParams:
     widest_per_block : float
         Widest field of the first refinement stage, in blocks of the coarse
         correlation grid: its hypotheses are off by up to half a block plus
-        their rotation error (see :func:`merging.tomographic.search.coarse_to_fine`).
+        their rotation error (see :func:`merging.tomographic.hypotheses.coarse_to_fine`).
         Below 6 blocks' worth of map (800 cells) no wider field is added.
     keep_refined_margin : float
         Score by which a refined transform may verify worse than its start
@@ -856,8 +856,8 @@ class TomographicParams:
     near_rival_turns : tuple of float
         RMS motions of map 2's walls (cells) by which a placement about to be
         accepted is turned about the overlap, either way, before refining it
-        again to look for a near rival (``_turned_rival`` in
-        :mod:`merging.tomographic.search`): the accuracy a merge is asked
+        again to look for a near rival
+        (:func:`merging.tomographic.restarts.turned_rival`): the accuracy a merge is asked
         for (2 cells) and twice that.
     near_rival_cells : float
         A placement farther than this (cells RMS over map 2's walls) from

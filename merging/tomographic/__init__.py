@@ -6,8 +6,16 @@
 :mod:`~merging.tomographic.correlate`
     Translation hypotheses from the correlation of every projection at once.
 :mod:`~merging.tomographic.search`
-    The pipeline: rotations, translations, screening, refinement and the
-    verdict (:func:`tomographic_merge`).
+    The method itself (:func:`tomographic_merge`): its steps, and where each
+    equation of the paper went.
+:mod:`~merging.tomographic.candidates`
+    What every step shares: both prepared maps and the ranked candidates.
+:mod:`~merging.tomographic.hypotheses`
+    Steps 1-4: rotations, translations, screening and refinement into a pool.
+:mod:`~merging.tomographic.judging`
+    Steps 5-6: the verdict on the pool, the mirror check.
+:mod:`~merging.tomographic.restarts`
+    Second looks at a placement: the refinement restarted from it moved.
 :mod:`~merging.tomographic.tracking`
     Following a known transform between two growing maps (:func:`track_transform`).
 

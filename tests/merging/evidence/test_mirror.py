@@ -23,7 +23,7 @@ from merging.evidence.verdict import MIRROR_REASON
 from merging.evidence.verify import prepare_map
 from merging.grid import observed_part
 from merging.params import DEFAULT_PARAMS
-from merging.tomographic import search as tomographic
+from merging.tomographic import judging
 from merging.transforms import rigid_matrix
 from tests.merging.builders import synthetic_building
 
@@ -188,7 +188,7 @@ def test_a_twin_beside_a_shared_wall_is_refused(monkeypatch) -> None:
     assert result.reason == MIRROR_REASON
     assert result.evidence["mirror_share"] > 0.7
     # Searched for on the whole map 1, the twin is missed and the placement accepted.
-    monkeypatch.setattr(tomographic, "twin_ground", lambda *args, **kwargs: None)
+    monkeypatch.setattr(judging, "twin_ground", lambda *args, **kwargs: None)
     missed = merging.estimate_transform(first, second, params=params)
     assert missed.accepted and missed.evidence["mirror_share"] < 0.1
 

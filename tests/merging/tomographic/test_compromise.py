@@ -6,21 +6,22 @@ import numpy as np
 
 from merging.evidence.verify import prepare_map
 from merging.params import DEFAULT_PARAMS
-from merging.tomographic.search import _compromise, _Maps, _rms_between
+from merging.tomographic.candidates import SearchMaps, rms_between
+from merging.tomographic.restarts import rigid_compromise
 from merging.transforms import matrix_to_pose, rigid_matrix
 from tests.merging.builders import synthetic_building
 
 
-def _maps(first: np.ndarray, second: np.ndarray) -> _Maps:
+def _maps(first: np.ndarray, second: np.ndarray) -> SearchMaps:
     params = DEFAULT_PARAMS
-    return _Maps(
+    return SearchMaps(
         prepare_map(first, params=params.verify), prepare_map(second, params=params.verify), params
     )
 
 
 def test_maps_that_do_not_bend_keep_their_placement() -> None:
     grid = synthetic_building(6)
-    moved, distance = _compromise(_maps(grid, grid), np.eye(3))
+    moved, distance = rigid_compromise(_maps(grid, grid), np.eye(3))
     assert distance < 0.5
     assert np.allclose(matrix_to_pose(moved)[:2], 0.0, atol=0.5)
 
@@ -36,8 +37,8 @@ def test_a_bent_map_settles_between_its_parts() -> None:
     bent[4:, half:] = grid[:-4, half:]
     bent[:4, half:] = -1
     maps = _maps(grid, bent)
-    moved, distance = _compromise(maps, np.eye(3))
+    moved, distance = rigid_compromise(maps, np.eye(3))
     right_half_fit = rigid_matrix(0.0, -4.0, 0.0)  # (x, y) = (col, row): 4 rows up
-    to_right = _rms_between(moved, right_half_fit, maps.second.points)
+    to_right = rms_between(moved, right_half_fit, maps.second.points)
     assert 0.5 < distance < 3.5
     assert 0.5 < to_right < 3.5

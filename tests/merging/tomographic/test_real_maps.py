@@ -17,7 +17,7 @@ from merging.evidence.verdict import MIRROR_REASON
 from merging.evidence.verify import prepare_map
 from merging.params import DEFAULT_PARAMS, DEFAULT_STAGES, RobustParams, TomographicParams
 from merging.resample import coarsen_cells, scale_matrix
-from merging.tomographic.search import coarse_to_fine
+from merging.tomographic.hypotheses import coarse_to_fine
 from merging.transforms import apply_transform, rigid_matrix
 from tests.merging.builders import synthetic_building, turned
 

@@ -12,7 +12,7 @@ from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
 from merging.evidence.verify import Verification, prepare_map
 from merging.params import DEFAULT_PARAMS
-from merging.tomographic import search
+from merging.tomographic import candidates, judging, restarts, search
 from merging.tomographic.correlate import _suppress, coarsen, translation_peaks
 from merging.transforms import matrix_to_pose, rigid_matrix
 from tests.merging.builders import synthetic_building, turned
@@ -191,9 +191,9 @@ def test_a_placement_judged_after_the_winner_is_refined_as_finely() -> None:
     # off, is brought to within a fraction of a cell before it is judged.
     grid = synthetic_building(8)
     map2, truth = turned(grid, 20.0, (5.0, -3.0))
-    maps = search._Maps(prepare_map(grid), prepare_map(map2), DEFAULT_PARAMS)
+    maps = candidates.SearchMaps(prepare_map(grid), prepare_map(map2), DEFAULT_PARAMS)
     start = rigid_matrix(1.2, -0.9, np.deg2rad(0.4)) @ truth
-    _, finished = search._finished(maps, (maps.verify(start), start))
+    _, finished = candidates.finished(maps, (maps.verify(start), start))
     assert transform_error(finished, truth, map2)[0] < 0.3 < transform_error(start, truth, map2)[0]
 
 
@@ -212,8 +212,8 @@ def test_a_small_overlap_judged_second_is_placed_to_the_cell(maps_folder) -> Non
 def test_a_placement_pinned_by_a_whole_building_has_no_near_rival() -> None:
     grid = synthetic_building(8)
     map2, truth = turned(grid, 20.0, (5.0, -3.0))
-    maps = search._Maps(prepare_map(grid), prepare_map(map2), DEFAULT_PARAMS)
-    assert search._turned_rival(maps, truth) is None
+    maps = candidates.SearchMaps(prepare_map(grid), prepare_map(map2), DEFAULT_PARAMS)
+    assert restarts.turned_rival(maps, truth) is None
 
 
 def test_a_small_overlap_with_a_near_rival_optimum_is_refused(maps_folder) -> None:
@@ -228,8 +228,8 @@ def test_a_small_overlap_with_a_near_rival_optimum_is_refused(maps_folder) -> No
     placed = np.array([[0.110898516, 0.993831736, 579.285004], [-0.993831736, 0.110898516,
                        226.151372], [0.0, 0.0, 1.0]])  # fmt: skip
     assert 3.0 < transform_error(placed, pair.truth, pair.map2)[0] < 4.0
-    maps = search._Maps(prepare_map(pair.map1), prepare_map(pair.map2), DEFAULT_PARAMS)
-    rival = search._turned_rival(maps, placed)
+    maps = candidates.SearchMaps(prepare_map(pair.map1), prepare_map(pair.map2), DEFAULT_PARAMS)
+    rival = restarts.turned_rival(maps, placed)
     assert rival is not None
     assert transform_error(rival[1], pair.truth, pair.map2)[0] < 2.0
 
@@ -286,7 +286,7 @@ def test_a_runner_up_that_only_lacked_the_narrow_fields_is_no_rival(
     result = merging.estimate_transform(pair.map1, pair.map2)
     assert result.accepted
     assert transform_error(result.matrix, pair.truth, pair.map2)[0] < 1.0
-    monkeypatch.setattr(search, "_rivals_that_stay", lambda maps, pool: pool)
+    monkeypatch.setattr(judging, "rivals_that_stay", lambda maps, pool: pool)
     kept = merging.estimate_transform(pair.map1, pair.map2)
     assert not kept.accepted
     assert kept.reason.startswith("ambiguous: another placement about as good lies 1")
@@ -299,10 +299,10 @@ def test_a_slide_return_stops_at_the_first_restart_that_strays() -> None:
     grid = np.full((60, 80), -1, dtype=np.int8)
     grid[20:40, 5:75] = 0
     grid[30, 5:75] = 100
-    maps = search._Maps(prepare_map(grid), prepare_map(grid), DEFAULT_PARAMS)
-    strayed = search._slide_return(maps, np.eye(3), 0.5)
+    maps = candidates.SearchMaps(prepare_map(grid), prepare_map(grid), DEFAULT_PARAMS)
+    strayed = restarts.slide_return(maps, np.eye(3), 0.5)
     assert strayed > 0.5
-    assert search._slide_return(maps, np.eye(3), np.inf) >= strayed
+    assert restarts.slide_return(maps, np.eye(3), np.inf) >= strayed
 
 
 @pytest.mark.parametrize(("settled_net", "held"), [(850.0, True), (960.0, False), (-50.0, False)])
@@ -332,11 +332,11 @@ def test_a_slid_restart_settling_on_a_worse_optimum_counts_as_coming_back(
             end = far if candidate[1][0, 2] >= 4.0 and candidate[1][1, 2] == 0 else np.eye(3)
             return self.verify(end), end
 
-    farthest = search._slide_return(Maps(), np.eye(3), 0.75)  # type: ignore[arg-type]
+    farthest = restarts.slide_return(Maps(), np.eye(3), 0.75)  # type: ignore[arg-type]
     assert (farthest <= 0.75) is held
     shared = replace(DEFAULT_PARAMS.confidence, slide_settled_share=100.0)
     Maps.params = replace(DEFAULT_PARAMS, confidence=shared)
-    assert search._slide_return(Maps(), np.eye(3), 0.75) == pytest.approx(5.0)
+    assert restarts.slide_return(Maps(), np.eye(3), 0.75) == pytest.approx(5.0)
 
 
 def test_a_close_alternative_is_held_against_the_rival_explaining_the_most() -> None:
@@ -351,9 +351,9 @@ def test_a_close_alternative_is_held_against_the_rival_explaining_the_most() -> 
     assert exact[0].net > loose[0].net
     pool = [chosen, loose, near, exact]
     distances = (4.0, 10.0)
-    by_rank = search._runners_up(pool, points, distances)
+    by_rank = judging.runners_up_of(pool, points, distances)
     assert by_rank[0] is loose and by_rank[1] is loose
-    by_net = search._runners_up(pool, points, distances, by_net=True)
+    by_net = judging.runners_up_of(pool, points, distances, by_net=True)
     assert by_net[0] is exact  # the near one is the same answer, closer than 4 cells
     assert by_net[1] is loose  # the robust evidence's rival stays the best-ranked one
 
@@ -361,8 +361,8 @@ def test_a_close_alternative_is_held_against_the_rival_explaining_the_most() -> 
 def test_a_whole_building_refined_both_ways_lands_in_one_place() -> None:
     grid = synthetic_building(8)
     map2, truth = turned(grid, 20.0, (5.0, -3.0))
-    maps = search._Maps(prepare_map(grid), prepare_map(map2), DEFAULT_PARAMS)
-    between, factor, gap = search._both_ways(maps, truth)
+    maps = candidates.SearchMaps(prepare_map(grid), prepare_map(map2), DEFAULT_PARAMS)
+    between, factor, gap = restarts.both_ways(maps, truth)
     assert gap < 0.5
     assert factor > 0.99
     assert transform_error(between, truth, map2)[0] < 0.5
@@ -387,11 +387,15 @@ def test_a_search_of_the_same_map_1_reuses_its_images_whatever_the_shifts_it_kee
     # coarse images of map 1; images made with other settings are not reused.
     grid = synthetic_building(8)
     first, second = prepare_map(grid), prepare_map(turned(grid, 20.0, (5.0, -3.0))[0])
-    maps = search._Maps(first, second, DEFAULT_PARAMS)
+    maps = candidates.SearchMaps(first, second, DEFAULT_PARAMS)
     fewer = replace(DEFAULT_PARAMS.translation, significant_peaks=0)
-    twin = search._Maps(first, second, replace(DEFAULT_PARAMS, translation=fewer), begun=maps)
+    twin = candidates.SearchMaps(
+        first, second, replace(DEFAULT_PARAMS, translation=fewer), begun=maps
+    )
     assert twin.smoothed is maps.smoothed and twin.coarse_first is maps.coarse_first
     translation = DEFAULT_PARAMS.translation
     blurred = replace(translation, wall_blur=2 * translation.wall_blur)
     with pytest.raises(ValueError, match="wall_blur"):
-        search._Maps(first, second, replace(DEFAULT_PARAMS, translation=blurred), begun=maps)
+        candidates.SearchMaps(
+            first, second, replace(DEFAULT_PARAMS, translation=blurred), begun=maps
+        )
