@@ -22,6 +22,13 @@ Usage::
 
     python scripts/bench_cycles.py                            # F5, HIH, KPT4A; the default
     python scripts/bench_cycles.py --floors HIH --methods tomographic ros_akaze
+    python scripts/bench_cycles.py --floors F5 --merger robust.margin=0.2
+
+The report also holds each refused pair against the chains of two accepted
+answers around it: a refused answer that agrees with them was right but not
+vouched for, one hundreds of cells from them wrong. ``--merger NAME=VALUE`` (repeatable)
+changes a setting of the default method by its dotted name
+(:mod:`merging.settings`); the report names the settings changed.
 """
 
 from __future__ import annotations
@@ -39,7 +46,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 import merging
+from merging.api import DEFAULT_METHOD
 from merging.evaluation.metrics import transform_error
+from merging.params import TomographicParams
+from tomosim.commands.merger_options import add_merger_argument, changed, merger_params
 from tomosim.commands.script_args import positive_float, run_script, shared_maps
 
 FLOORS = ("F5", "HIH", "KPT4A")
@@ -70,16 +80,27 @@ def sessions(folder: Path, floor: str) -> list[str]:
 
 
 def merge_floor(
-    folder: Path, floor: str, methods: list[str], writer: csv.DictWriter, handle
+    folder: Path,
+    floor: str,
+    methods: list[str],
+    writer: csv.DictWriter,
+    handle,
+    params: TomographicParams | None = None,
 ) -> list[Answer]:
-    """Every method on every unordered pair of ``floor``'s sessions; rows written as they come."""
+    """Every method on every unordered pair of ``floor``'s sessions; rows written as they come.
+
+    ``params`` (None: the defaults) are the default method's settings.
+    """
+    settings = {} if params is None else {"params": params}
     names = sessions(folder, floor)
     grids = {name: merging.load_map(folder / f"{name}.yaml") for name in names}
     answers: list[Answer] = []
     for first, second in itertools.combinations(names, 2):
         for method in methods:
             start = time.perf_counter()
-            result = merging.estimate_transform(grids[first], grids[second], method=method, rng=0)
+            options = settings if method == DEFAULT_METHOD else {}
+            result = merging.estimate_transform(grids[first], grids[second], method=method,
+                                                rng=0, **options)  # fmt: skip
             seconds = time.perf_counter() - start
             answer = Answer(floor, first, second, method, bool(result.accepted),
                             float(result.confidence), seconds, result.matrix,
@@ -110,6 +131,42 @@ def cycles(answers: list[Answer], walls: dict[str, NDArray]) -> list[tuple[str, 
     return closed
 
 
+def refused_against_cycles(
+    answers: list[Answer], walls: dict[str, NDArray], look: float
+) -> list[tuple[str, str, float | None, str]]:
+    """``(a, c, error, reason)`` for every refused pair: how far (cells RMS over ``c``'s
+    walls, the median over every ``b``) its answer lies from the chain of two accepted
+    answers ``a <- b <- c``; None when no such chain exists.
+
+    A refused answer within ``look`` of the chains is a right answer the verdict
+    did not vouch for; one beyond :data:`WRONG_CELLS`, a wrong answer rightly
+    refused. So the refusals split, without a known truth, into what the
+    verdict's caution costs and what the search misses.
+    """
+    found = {(x.first, x.second): x.matrix for x in answers if x.accepted}
+
+    def accepted(x: str, y: str) -> NDArray | None:
+        if (x, y) in found:
+            return found[(x, y)]
+        return None if (y, x) not in found else np.linalg.inv(found[(y, x)])
+
+    names = sorted({x.first for x in answers} | {x.second for x in answers})
+    checked = []
+    for answer in answers:
+        if answer.accepted:
+            continue
+        a, c = answer.first, answer.second
+        errors = []
+        for b in names:
+            ab, bc = accepted(a, b), accepted(b, c)
+            if b in (a, c) or ab is None or bc is None:
+                continue
+            errors.append(transform_error(ab @ bc, answer.matrix, walls[c])[0])
+        median = float(np.median(errors)) if errors else None
+        checked.append((a, c, median, answer.reason))
+    return checked
+
+
 def overlay(first: NDArray, second: NDArray, matrix: NDArray, path: Path) -> None:
     """Save map 1's walls (black) and map 2's placed by ``matrix`` (red) on map 1's open space."""
     from PIL import Image
@@ -130,8 +187,14 @@ def overlay(first: NDArray, second: NDArray, matrix: NDArray, path: Path) -> Non
     Image.fromarray(image[::-1]).save(path)  # row 0 of the grid is the bottom
 
 
-def report(answers: list[Answer], closed: dict[tuple[str, str], list], look: float) -> list[str]:
-    """The Markdown report: per floor and method, acceptance and how the cycles close."""
+def report(
+    answers: list[Answer],
+    closed: dict[tuple[str, str], list],
+    refused: dict[tuple[str, str], list],
+    look: float,
+) -> list[str]:
+    """The Markdown report: per floor and method, acceptance, how the cycles close and
+    how the refused answers lie against them."""
     lines = [
         "| floor | method | pairs | accepted | cycles | median error (cells) | max | "
         f"above {look:.0f} | above {WRONG_CELLS:.0f} (a wrong answer) | median s |",
@@ -153,6 +216,23 @@ def report(answers: list[Answer], closed: dict[tuple[str, str], list], look: flo
     if flagged:
         lines += ["", f"Cycles missing by more than {look:.0f} cells:", ""]
         lines += [f"- {f} {m}: {a} -> {b} -> {c}: {e:.1f} cells" for f, m, a, b, c, e in flagged]
+    lines += [
+        "",
+        "Refused pairs against the chains of two accepted answers around them (cells, the "
+        f"median over the chains): within {look:.0f} a right answer the verdict did not vouch "
+        f"for, above {WRONG_CELLS:.0f} a wrong answer rightly refused.",
+        "",
+        f"| floor | method | refused | within {look:.0f} | {look:.0f}-{WRONG_CELLS:.0f} | "
+        f"above {WRONG_CELLS:.0f} | no chain |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for (floor, method), checked in refused.items():
+        errors = np.array([e for _, _, e, _ in checked if e is not None])
+        near, far = int((errors <= look).sum()), int((errors > WRONG_CELLS).sum())
+        lines.append(
+            f"| {floor} | {method} | {len(checked)} | {near} | {len(errors) - near - far} | "
+            f"{far} | {len(checked) - len(errors)} |"
+        )
     return lines
 
 
@@ -164,8 +244,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="name the cycles missing by more than this (cells RMS)")  # fmt: skip
     parser.add_argument("--overlays", action="store_true",
                         help="draw the accepted pairs of the cycles named")  # fmt: skip
+    add_merger_argument(parser)
     parser.add_argument("--out", type=Path, default=Path("results/bench_cycles"))
     args = parser.parse_args(argv)
+    params = merger_params(args.merger)
     folder = shared_maps()
     unknown = sorted(set(args.methods) - set(merging.available_methods()))
     if unknown:
@@ -177,6 +259,7 @@ def main(argv: list[str] | None = None) -> int:
     csv_path = args.out / "pairs.csv"
     answers: list[Answer] = []
     closed: dict[tuple[str, str], list] = {}
+    refused: dict[tuple[str, str], list] = {}
     with csv_path.open("w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=["floor", "first", "second", "method",
                                                     "accepted", "confidence", "seconds",
@@ -188,12 +271,13 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"error: {halmstad} holds {len(names)} sessions of {floor}; a cycle needs 3",
                       file=sys.stderr)  # fmt: skip
                 return 1
-            found = merge_floor(halmstad, floor, args.methods, writer, handle)
+            found = merge_floor(halmstad, floor, args.methods, writer, handle, params)
             answers += found
             walls = {name: merging.load_map(halmstad / f"{name}.yaml").data for name in names}
             for method in args.methods:
                 mine = [x for x in found if x.method == method]
                 closed[(floor, method)] = cycles(mine, walls)
+                refused[(floor, method)] = refused_against_cycles(mine, walls, args.look_cells)
                 if not args.overlays:
                     continue
                 named = {p for t in closed[(floor, method)] if t[3] > args.look_cells
@@ -202,8 +286,11 @@ def main(argv: list[str] | None = None) -> int:
                     answer = next(x for x in mine if (x.first, x.second) == (a, b))
                     overlay(walls[a], walls[b], answer.matrix,
                             args.out / f"{method}_{a}_{b}.png")  # fmt: skip
-    lines = ["# Cycles of three on floors without a known truth", "",
-             *report(answers, closed, args.look_cells)]  # fmt: skip
+    settings = changed(params)
+    listed = ", ".join(f"`{name}={value}`" for name, value in settings.items())
+    named = [f"Default merger's settings changed (`--merger`): {listed}.", ""] if settings else []
+    lines = ["# Cycles of three on floors without a known truth", "", *named,
+             *report(answers, closed, refused, args.look_cells)]  # fmt: skip
     md_path = args.out / "cycles.md"
     md_path.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

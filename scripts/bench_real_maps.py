@@ -52,6 +52,11 @@ Usage::
     python scripts/bench_real_maps.py moderate-overlap --seed 41
     python scripts/bench_real_maps.py sessions --methods tomographic --every 3   # a quick look
     python scripts/bench_real_maps.py low-overlap --methods tomographic --from-truth
+    python scripts/bench_real_maps.py sessions --methods tomographic --merger robust.margin=0.2
+
+``--merger NAME=VALUE`` (repeatable) changes a setting of the default method
+by its dotted name (:mod:`merging.settings`), for its rows and ``from_truth``'s;
+the report names the settings changed.
 """
 
 from __future__ import annotations
@@ -70,10 +75,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 import merging
+from merging.api import DEFAULT_METHOD
 from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
+from merging.params import TomographicParams
 from merging.tomographic.search import refine_from
 from merging.transforms import rigid_matrix
+from tomosim.commands.merger_options import add_merger_argument, changed, merger_params
 from tomosim.commands.script_args import non_negative_int, run_script
 from tomosim.data import maps_dir, maps_missing
 
@@ -223,7 +231,11 @@ def low_overlap_cases(pairs_per_map: int, seed: int) -> Iterator[Case]:
                            WINDOW_RIGHT_CELLS)  # fmt: skip
 
 
-def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle) -> list[Row]:
+def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle,
+        params: TomographicParams | None = None) -> list[Row]:  # fmt: skip
+    """Run ``methods`` on ``cases``, writing each row as it is known; ``params`` (None: the
+    defaults) are the default method's settings, for its rows and those of ``from_truth``."""
+    settings = {} if params is None else {"params": params}
     rows: list[Row] = []
     for count, case in enumerate(cases, start=1):
         default_matrix = None
@@ -232,9 +244,11 @@ def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle) ->
                 continue
             start, cpu_start = time.perf_counter(), time.process_time()
             if method == FROM_TRUTH:
-                result = refine_from(case.map1, case.map2, case.truth)
+                result = refine_from(case.map1, case.map2, case.truth, **settings)
             else:
-                result = merging.estimate_transform(case.map1, case.map2, method=method, rng=seed)
+                options = settings if method == DEFAULT_METHOD else {}
+                result = merging.estimate_transform(case.map1, case.map2, method=method,
+                                                    rng=seed, **options)  # fmt: skip
             seconds = time.perf_counter() - start
             cpu_seconds = time.process_time() - cpu_start
             cells2 = getattr(case.map2, "data", case.map2)
@@ -305,6 +319,15 @@ def summary_table(rows: list[Row], methods: list[str]) -> list[str]:
     return lines
 
 
+def settings_line(params: TomographicParams | None) -> list[str]:
+    """The report's line naming the default merger's settings a run changed (none: no line)."""
+    settings = changed(params)
+    if not settings:
+        return []
+    listed = ", ".join(f"`{name}={value}`" for name, value in settings.items())
+    return [f"Default merger's settings changed (`--merger`): {listed}.", ""]
+
+
 def unknown_table(rows: list[Row]) -> list[str]:
     """The pairs without a known transform: accepted, confidence, distance from the default's."""
     mine = [r for r in rows if r.right == "unknown"]
@@ -347,8 +370,10 @@ def main(argv: list[str] | None = None) -> int:
         "verdict on its refinement started at the truth (a bound on what a better search "
         "could add; it skips the checks that need a search)",
     )
+    add_merger_argument(parser)
     parser.add_argument("--out", type=Path, default=Path("results/bench_real_maps"))
     args = parser.parse_args(argv)
+    params = merger_params(args.merger)
     if maps_dir() is None:
         print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
@@ -376,8 +401,9 @@ def main(argv: list[str] | None = None) -> int:
     with csv_path.open("w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(Row.__dataclass_fields__))
         writer.writeheader()
-        rows = run(cases, methods, args.seed, writer, handle)
-    report = [f"# {args.suite}", "", *summary_table(rows, methods), *unknown_table(rows)]
+        rows = run(cases, methods, args.seed, writer, handle, params)
+    report = [f"# {args.suite}", "", *settings_line(params), *summary_table(rows, methods),
+              *unknown_table(rows)]  # fmt: skip
     md_path = args.out / f"{args.suite}.md"
     md_path.write_text("\n".join(report) + "\n")
     print("\n".join(report))

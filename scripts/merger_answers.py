@@ -18,6 +18,11 @@ Usage::
     python scripts/merger_answers.py --out before.jsonl
     python scripts/merger_answers.py --compare before.jsonl
     python scripts/merger_answers.py --suites paper low-overlap --out quick.jsonl
+    python scripts/merger_answers.py --compare before.jsonl --merger confidence.accept=0.5
+
+``--merger NAME=VALUE`` (repeatable) answers with a setting of the default
+method changed by its dotted name (:mod:`merging.settings`): compared with a
+record of the defaults, it lists every verdict the setting moves.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ import numpy as np
 
 import merging
 from merging.evaluation.pairs import cut_window_pairs
+from tomosim.commands.merger_options import add_merger_argument, merger_params
 from tomosim.commands.script_args import run_script
 from tomosim.data import maps_dir, maps_missing
 
@@ -124,7 +130,10 @@ def main(argv: list[str] | None = None) -> int:
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--out", type=Path, help="write the answers here (JSON lines)")
     target.add_argument("--compare", type=Path, help="compare with answers written before")
+    add_merger_argument(parser)
     args = parser.parse_args(argv)
+    params = merger_params(args.merger)
+    options = {} if params is None else {"params": params}
     if args.limit is not None and args.limit < 1:
         parser.error(f"--limit must be at least 1, got {args.limit}")
     if maps_dir() is None:
@@ -142,10 +151,11 @@ def main(argv: list[str] | None = None) -> int:
             reference[(entry["suite"], entry["pair"])] = entry
     handle = open(args.out, "w") if args.out is not None else None  # noqa: SIM115
     same = differ = missing = 0
+    turned = {True: 0, False: 0}  # verdicts that moved, by the new one
     clock = time.perf_counter()
     try:
         for suite, pair, map1, map2, seed in cases(args.suites, args.limit):
-            result = merging.estimate_transform(map1, map2, rng=seed)
+            result = merging.estimate_transform(map1, map2, rng=seed, **options)
             now = answer(suite, pair, result)
             if handle is not None:
                 handle.write(json.dumps(now) + "\n")
@@ -158,6 +168,8 @@ def main(argv: list[str] | None = None) -> int:
                 same += 1
             else:
                 differ += 1
+                if before["accepted"] != now["accepted"]:
+                    turned[now["accepted"]] += 1
                 print(f"{suite} {pair}: {difference(before, now)}")
     finally:
         if handle is not None:
@@ -166,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.out is not None:
         print(f"wrote the answers to {args.out} ({seconds:.0f} s)")
         return 0
-    print(f"{same} identical, {differ} different, {missing} not in the record ({seconds:.0f} s)")
+    print(f"{same} identical, {differ} different ({turned[True]} now accepted, {turned[False]} "
+          f"now refused), {missing} not in the record ({seconds:.0f} s)")  # fmt: skip
     return 1 if differ else 0
 
 

@@ -30,8 +30,39 @@ def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> Non
     wrong = [*consistent[:2], answer("a", "c", rigid_matrix(300.0, 0.0, 0.0) @ b_in_a @ c_in_b)]
     [(_, _, _, error)] = bench.cycles(wrong, grids)
     assert error > bench.WRONG_CELLS
-    lines = bench.report(wrong, {("F", "m"): bench.cycles(wrong, grids)}, 30.0)
-    assert "| F | m | 3 | 3 | 1 |" in lines[2] and "a -> b -> c" in lines[-1]
+    lines = bench.report(wrong, {("F", "m"): bench.cycles(wrong, grids)}, {}, 30.0)
+    assert "| F | m | 3 | 3 | 1 |" in lines[2] and any("a -> b -> c" in line for line in lines)
+
+
+def test_refused_answers_are_held_against_chains_of_accepted_ones() -> None:
+    bench = load_script("bench_cycles")
+    walls = np.zeros((60, 60), dtype=np.int8)
+    walls[10, 5:55] = walls[5:55, 40] = 100
+    grids = {name: walls for name in "abcde"}
+    b_in_a, c_in_b = rigid_matrix(12.0, -3.0, 0.2), rigid_matrix(-4.0, 7.0, -0.5)
+
+    def answer(first: str, second: str, matrix, accepted: bool = True):
+        return bench.Answer("F", first, second, "m", accepted, 0.9, 0.01, matrix, "why")
+
+    answers = [
+        answer("a", "b", b_in_a),
+        answer("b", "c", c_in_b),
+        # Refused but right: it agrees with a <- b <- c to a few cells.
+        answer("a", "c", rigid_matrix(3.0, 0.0, 0.0) @ b_in_a @ c_in_b, accepted=False),
+        # Refused and wrong: hundreds of cells from the chain c <- b <- d.
+        answer("c", "d", rigid_matrix(0.0, 0.0, 0.0), accepted=False),
+        answer("b", "d", rigid_matrix(300.0, 0.0, 0.0) @ np.linalg.inv(c_in_b)),
+        answer("d", "e", np.eye(3), accepted=False),  # no chain of accepted answers
+    ]
+    checked = {
+        (a, c): error for a, c, error, _ in bench.refused_against_cycles(answers, grids, 30.0)
+    }
+    assert set(checked) == {("a", "c"), ("c", "d"), ("d", "e")}
+    assert checked[("a", "c")] == pytest.approx(3.0, abs=1e-6)
+    assert checked[("c", "d")] > bench.WRONG_CELLS and checked[("d", "e")] is None
+    refused = {("F", "m"): bench.refused_against_cycles(answers, grids, 30.0)}
+    lines = bench.report(answers, {("F", "m"): bench.cycles(answers, grids)}, refused, 30.0)
+    assert "| F | m | 3 | 1 | 0 | 1 | 1 |" in lines
 
 
 def test_unknown_methods_are_named(capsys, tmp_path, maps_folder) -> None:

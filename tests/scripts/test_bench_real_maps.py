@@ -5,6 +5,8 @@ from __future__ import annotations
 import csv
 import io
 
+from merging.params import DEFAULT_PARAMS
+from merging.settings import with_settings
 from tests.merging.builders import synthetic_building, turned
 from tests.support import load_script
 
@@ -66,3 +68,22 @@ def test_from_truth_rows_judge_the_truth_and_skip_pairs_without_one() -> None:
     assert judged.accepted and judged.right == "yes" and judged.rms_cells < 0.5
     # The search finds the same placement: the two rows lie within a cell of each other.
     assert rows[0].accepted and judged.from_default_cells < 1.0
+
+
+def test_the_default_merger_s_settings_reach_its_rows_and_the_report() -> None:
+    bench = load_script("bench_real_maps")
+    building = synthetic_building(5)
+    map2, truth = turned(building, 30.0, (4.0, -3.0))
+    cases = [bench.Case("s", "known", "turned", building, map2, truth, 2.0)]
+    handle = io.StringIO()
+    writer = csv.DictWriter(handle, fieldnames=list(bench.Row.__dataclass_fields__))
+    # Asked for a confidence no placement reaches, the default and from_truth refuse.
+    params = with_settings(DEFAULT_PARAMS, {"confidence.accept": "1.0"})
+    rows = bench.run(iter(cases), ["tomographic", bench.FROM_TRUTH], 0, writer, handle, params)
+    assert [r.accepted for r in rows] == [False, False]
+    assert all(r.right == "yes" for r in rows)  # the same placements, only refused
+    assert bench.settings_line(params) == [
+        "Default merger's settings changed (`--merger`): `confidence.accept=1.0`.",
+        "",
+    ]
+    assert bench.settings_line(None) == bench.settings_line(DEFAULT_PARAMS) == []

@@ -34,6 +34,12 @@ def test_answers_compare_identical_and_a_moved_one_is_named(maps_folder, tmp_pat
     same = run(maps_folder, "--compare", str(record))
     assert same.returncode == 0, same.stdout + same.stderr
     assert "4 identical, 0 different" in same.stdout
+    # A setting changed by name: every pair it refuses now is counted.
+    held = sum(e["accepted"] and float.fromhex(e["confidence"]) < 1.0 for e in lines)
+    assert held > 0
+    stricter = run(maps_folder, "--compare", str(record), "--merger", "confidence.accept=1.0")
+    assert stricter.returncode == 1
+    assert f"(0 now accepted, {held} now refused)" in stricter.stdout
     # One transform moved by a hair and its verdict flipped: named, and the status is 1.
     moved = lines[0]
     moved["matrix"][2] = float.hex(float.fromhex(moved["matrix"][2]) + 1e-9)

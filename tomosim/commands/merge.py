@@ -34,6 +34,7 @@ from merging.resample import common_resolution
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
 from tomosim.commands.demo_maps import DEMO_SEED, demo_pair
 from tomosim.commands.merge_report import render_table, summarise
+from tomosim.commands.merger_options import add_merger_argument, changed, merger_params
 
 NAME = "merge"
 """The subcommand's name."""
@@ -77,6 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_SEED,
         help=f"seed for the methods' randomness (default {DEFAULT_SEED})",
     )
+    add_merger_argument(parser)
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument(
         "--demo",
@@ -94,6 +96,7 @@ def run(args: argparse.Namespace) -> int:
     paths = [map_path(source) for source in args.maps]
     output: Path = args.output
     check_arguments(args, paths, output)
+    params = merger_params(args.merger, args.method)
     check_writable(output, option="-o")
     truth = None
     if args.demo is not None:
@@ -108,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
                 f"{path}; choose another output file"
             )
     try:
-        result = merge_all(grids, method=args.method, rng=args.seed)
+        options = {} if params is None else {"params": params}
+        result = merge_all(grids, method=args.method, rng=args.seed, **options)
     except ValueError as exc:
         raise CommandError(f"cannot merge: {one_line(exc)}") from exc
     fused = result.fused.grid
@@ -129,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
             raise CommandError(f"cannot write {output}: {one_line(exc.strerror or exc)}") from exc
     summary = summarise(result, grids, paths, output, truth=truth)
     summary["written"] = written
+    if params is not None:
+        summary["merger_settings"] = changed(params)
     print(json.dumps(summary, indent=2) if args.json else render_table(summary))
     if not written:
         raise CommandError(

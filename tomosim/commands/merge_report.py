@@ -154,6 +154,9 @@ def render_table(summary: dict[str, Any]) -> str:
     ]
     headers = ["pair", "confidence", "accepted", "used", "x", "y", "theta [deg]", "reason"]
     lines.append(format_table(headers, rows, left=(0, 7)))
+    if summary.get("merger_settings"):
+        changed = ", ".join(f"{name}={value}" for name, value in summary["merger_settings"].items())
+        lines.append(f"merger settings changed: {changed}")
     if "demo" in summary:
         demo = summary["demo"]
         t, e = demo["truth"], demo["estimate"]

@@ -190,6 +190,35 @@ def test_merge_two_saved_maps_end_to_end(
     assert report["unlinked"] == [] and report["reference"]["index"] == 0
 
 
+def test_merge_takes_the_default_merger_s_settings_by_name(
+    demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first, second, _ = demo_files
+    output = tmp_path / "merged.yaml"
+    maps = ["merge", str(first), str(second), "-o", str(output)]
+    status, out, err = run([*maps, "--json", "--merger", "confidence.accept=0.5"], capsys)
+    assert status == 0, err
+    report = json.loads(out)
+    assert report["merger_settings"] == {"confidence.accept": 0.5}
+    (pair,) = report["pairs"]
+    assert pair["accepted"] and pair["confidence"] < 0.999
+    output.unlink()
+    # Asked for more confidence than the pair has, the merger refuses it: nothing written.
+    status, _, err = run([*maps, "--merger", "confidence.accept=0.999"], capsys)
+    assert status == 1
+    assert_one_line_error(err, "could not link any two of the 2 maps")
+    assert not output.exists()
+    status, _, err = run([*maps, "--merger", "confidence.acept=0.5"], capsys)
+    assert status == 2
+    assert_one_line_error(err, "--merger: no merger setting named 'confidence.acept'")
+    status, _, err = run([*maps, "--method", "spectral", "--merger", "robust.margin=0.2"], capsys)
+    assert status == 2
+    assert_one_line_error(err, "the 'spectral' method takes none")
+    status, _, err = run([*maps, "--merger", "robust.margin"], capsys)
+    assert status == 2
+    assert_one_line_error(err, "--merger takes NAME=VALUE")
+
+
 def test_merge_maps_of_different_resolutions(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

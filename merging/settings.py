@@ -1,0 +1,151 @@
+"""Settings by dotted name: ``confidence.accept``, ``robust.margin``, ``translation.peaks``.
+
+The default method's settings (:class:`~merging.params.TomographicParams`)
+nest frozen dataclasses, one per concern; a *setting name* walks them with
+dots. :func:`setting_names` lists every setting that holds one value, with
+its type; :func:`with_settings` makes a copy with some of them changed (from
+values, or from their text as a command line gives them, converted by the
+field's type); :func:`changed_settings` lists those in which a settings
+object differs from another. Settings holding several values (the
+refinement schedule, field widths) have no name: set them in Python with
+:func:`dataclasses.replace`.
+
+The same names reach the settings from the command line:
+``tomosim merge --merger confidence.accept=0.5`` and the benchmark scripts'
+``--merger``. The functions take any nesting of frozen dataclasses
+(:mod:`tomosim.team.overrides` uses them for the team's settings).
+
+>>> from merging.params import TomographicParams
+>>> from merging.settings import changed_settings, with_settings
+>>> params = with_settings(TomographicParams(), {"robust.margin": "0.2"})
+>>> params.robust.margin
+0.2
+>>> changed_settings(params, TomographicParams())
+{'robust.margin': 0.2}
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+from collections.abc import Mapping
+from typing import Any, TypeVar
+
+SCALARS = (bool, int, float, str)
+"""The kinds of value a named setting holds (the leaves of the nested settings)."""
+TRUE_WORDS, FALSE_WORDS = ("true", "yes", "on", "1"), ("false", "no", "off", "0")
+"""How a switch is written on the command line."""
+
+Settings = TypeVar("Settings")
+
+
+def setting_names(config: Any, prefix: str = "") -> dict[str, type]:
+    """Every setting name of ``config`` (a frozen dataclass, nested or not) and its type.
+
+    A field holding a dataclass is walked into; one holding a single value of
+    :data:`SCALARS` (or None besides) is a setting; other fields (tuples,
+    arrays) are left out.
+    """
+    if not dataclasses.is_dataclass(config) or isinstance(config, type):
+        raise TypeError(f"settings are read from a dataclass instance, got {type(config).__name__}")
+    hints = typing.get_type_hints(type(config))
+    names: dict[str, type] = {}
+    for item in dataclasses.fields(config):
+        value = getattr(config, item.name)
+        name = f"{prefix}{item.name}"
+        if dataclasses.is_dataclass(value):
+            names.update(setting_names(value, f"{name}."))
+            continue
+        kind = _scalar_kind(hints.get(item.name))
+        if kind is not None:
+            names[name] = kind
+    return names
+
+
+def _scalar_kind(hint: Any) -> type | None:
+    """The scalar type a field holds (``float | None`` gives ``float``), or None."""
+    options = (
+        typing.get_args(hint)
+        if typing.get_origin(hint) in (typing.Union, type(int | None))
+        else (hint,)
+    )
+    kinds = [option for option in options if option in SCALARS]
+    return kinds[0] if len(kinds) == 1 else None
+
+
+def parse_value(text: str, kind: type, name: str) -> Any:
+    """``text`` as a value of ``kind`` (``none`` for an optional setting's None)."""
+    word = text.strip().lower()
+    if word == "none":
+        return None
+    if kind is bool:
+        if word in TRUE_WORDS or word in FALSE_WORDS:
+            return word in TRUE_WORDS
+        raise ValueError(f"{name} is a switch: give true or false, got {text!r}")
+    try:
+        return kind(text.strip())
+    except ValueError:
+        raise ValueError(f"{name} takes {kind.__name__} values, got {text!r}") from None
+
+
+def with_settings(
+    config: Settings, settings: Mapping[str, Any], *, what: str = "setting"
+) -> Settings:
+    """A copy of ``config`` with ``settings`` (setting name -> value or its text) changed.
+
+    ``what`` names the settings in an error ("no {what} named ...").
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (the message lists the known ones) or a value the
+        setting refuses (the settings objects check their fields).
+    """
+    known = setting_names(config)
+    for name, value in settings.items():
+        if name not in known:
+            raise ValueError(
+                f"no {what} named {name!r}; the settings are: {', '.join(sorted(known))}"
+            )
+        if isinstance(value, str) and known[name] is not str:
+            value = parse_value(value, known[name], name)
+        config = _replaced(config, name.split("."), value)
+    return config
+
+
+def _replaced(config: Any, path: list[str], value: Any) -> Any:
+    """``config`` with the setting at ``path`` made ``value`` (nested copies)."""
+    head, *rest = path
+    new = value if not rest else _replaced(getattr(config, head), rest, value)
+    return dataclasses.replace(config, **{head: new})
+
+
+def changed_settings(config: Any, default: Any) -> dict[str, Any]:
+    """The settings (by name) in which ``config`` differs from ``default``, in the order of
+    :func:`setting_names`."""
+    changed = {}
+    for name in setting_names(config):
+        value, base = setting_value(config, name), setting_value(default, name)
+        if value != base:
+            changed[name] = value
+    return changed
+
+
+def setting_value(config: Any, name: str) -> Any:
+    """The value of the setting ``name`` (dotted) of ``config``."""
+    for part in name.split("."):
+        config = getattr(config, part)
+    return config
+
+
+def parse_assignments(pairs: list[str], *, option: str, example: str) -> dict[str, str]:
+    """``NAME=VALUE`` texts (as an option repeated on a command line gives them) as a
+    mapping; ``ValueError`` naming ``option`` and showing ``example`` for one that is not."""
+    settings: dict[str, str] = {}
+    for pair in pairs:
+        name, equals, value = pair.partition("=")
+        name = name.strip()
+        if not equals or not name or not value.strip():
+            raise ValueError(f"{option} takes NAME=VALUE (e.g. {example}), got {pair!r}")
+        settings[name] = value
+    return settings

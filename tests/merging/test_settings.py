@@ -1,0 +1,74 @@
+"""The merger's settings by dotted name: every leaf named, nested copies, errors that name."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from merging.params import DEFAULT_PARAMS, TomographicParams
+from merging.settings import (
+    changed_settings,
+    parse_assignments,
+    setting_names,
+    setting_value,
+    with_settings,
+)
+
+
+def test_every_single_valued_setting_has_a_name_and_a_type() -> None:
+    names = setting_names(DEFAULT_PARAMS)
+    assert names["confidence.accept"] is float and names["robust.tolerance"] is int
+    assert names["translation.peaks"] is int and names["from_start.local"] is bool
+    assert names["distinct_cells"] is float  # a setting of the top level
+    # Settings holding several values (the schedule, field widths) have no name.
+    assert "stages" not in names and not any(name.startswith("stages") for name in names)
+    assert "compromise.sigmas" not in names
+    assert not any(name in ("confidence", "robust", "verify") for name in names)
+    for name in names:
+        assert setting_value(DEFAULT_PARAMS, name) is not None
+
+
+def test_settings_change_nested_copies_and_are_listed() -> None:
+    params = with_settings(DEFAULT_PARAMS, {"robust.margin": "0.2", "from_start.local": "off"})
+    assert params.robust.margin == 0.2 and params.from_start.local is False
+    assert DEFAULT_PARAMS.robust.margin == 0.3  # the original is untouched
+    assert params.confidence is DEFAULT_PARAMS.confidence  # untouched parts are shared
+    assert changed_settings(params, DEFAULT_PARAMS) == {
+        "robust.margin": 0.2,
+        "from_start.local": False,
+    }
+    assert with_settings(params, {"robust.margin": 0.3, "from_start.local": True}) == DEFAULT_PARAMS
+    assert changed_settings(DEFAULT_PARAMS, TomographicParams()) == {}
+
+
+@pytest.mark.parametrize(
+    ("settings", "message"),
+    [
+        ({"confidence.acept": "0.5"}, "no merger setting named 'confidence.acept'.*accept"),
+        ({"translation.peaks": "three"}, "translation.peaks takes int values"),
+        ({"from_start.local": "maybe"}, "from_start.local is a switch"),
+        ({"confidence.accept": "2"}, "accept"),  # the settings object's own check
+    ],
+)
+def test_bad_settings_are_named(settings: dict[str, str], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        with_settings(DEFAULT_PARAMS, settings, what="merger setting")
+
+
+def test_assignments_are_name_value_pairs() -> None:
+    assert parse_assignments([" robust.margin=0.2", "a.b=c=d"], option="--x", example="a=1") == {
+        "robust.margin": "0.2",
+        "a.b": "c=d",
+    }
+    for bad in ("robust.margin", "=0.2", "robust.margin= "):
+        with pytest.raises(ValueError, match=r"--x takes NAME=VALUE \(e.g. a=1\)"):
+            parse_assignments([bad], option="--x", example="a=1")
+
+
+def test_only_a_dataclass_holds_settings() -> None:
+    with pytest.raises(TypeError, match="dataclass instance"):
+        setting_names(TomographicParams)
+    with pytest.raises(TypeError, match="dict"):
+        setting_names({"accept": 0.6})
+    assert dataclasses.is_dataclass(DEFAULT_PARAMS)
