@@ -37,19 +37,21 @@ def warm_up() -> None:
 
 
 def serve(jobs: IO[bytes], answers: IO[bytes]) -> None:
-    """Answer pickled ``(number, first, second, method, seed)`` jobs until ``jobs`` ends.
+    """Answer pickled ``(number, first, second, method, seed, options)`` jobs until ``jobs``
+    ends (``options``: the keyword arguments of the method's settings, ``params=``).
 
     Each answer is ``(number, True, MergeResult)``, or ``(number, False,
     exception)`` when the search raised.
     """
     while True:
         try:
-            number, first, second, method, seed = pickle.load(jobs)
+            number, first, second, method, seed, options = pickle.load(jobs)
         except (EOFError, pickle.UnpicklingError):  # the end, or a caller that ended mid-job
             return
         answer: tuple[Any, ...]
         try:
-            answer = (number, True, estimate_transform(first, second, method=method, rng=seed))
+            result = estimate_transform(first, second, method=method, rng=seed, **options)
+            answer = (number, True, result)
         except Exception as error:  # handed back to the caller, who raises it
             answer = (number, False, error)
         try:

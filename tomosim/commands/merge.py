@@ -22,6 +22,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
@@ -111,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{path}; choose another output file"
             )
     try:
-        options = {} if params is None else {"params": params}
+        options: dict[str, Any] = {} if params is None else {"params": params}
         result = merge_all(grids, method=args.method, rng=args.seed, **options)
     except ValueError as exc:
         raise CommandError(f"cannot merge: {one_line(exc)}") from exc

@@ -175,6 +175,13 @@ class TeamConfig:
     tracker : TrackingParams
         When tracked pairs are searched again, and how a track starts and is
         kept.
+    merger : TomographicParams
+        The default (tomographic) method's settings, for the team's global
+        searches and tracking (a kept track's threshold is
+        ``tracker.keep_confidence`` still); by name on the command line as
+        ``--team merger.confidence.accept=0.7`` (:mod:`merging.settings`).
+        Other methods take no settings: changed, it needs
+        ``method="tomographic"``.
     merge_worker : bool
         Run the tracker's global searches in a worker process (the results,
         collected at a fixed later round, are the same either way).
@@ -199,6 +206,7 @@ class TeamConfig:
     share_interval: int = 10
     tracking: bool = True
     tracker: TrackingParams = field(default_factory=TrackingParams)
+    merger: TomographicParams = DEFAULT_PARAMS
     merge_worker: bool = True
     linking: LinkingParams = field(default_factory=LinkingParams)
     comms: CommsConfig = field(default_factory=CommsConfig)
@@ -222,6 +230,7 @@ class TeamConfig:
             )
         for name, kind in (
             ("tracker", TrackingParams),
+            ("merger", TomographicParams),
             ("linking", LinkingParams),
             ("comms", CommsConfig),
             ("simulation", SimulationConfig),
@@ -231,3 +240,13 @@ class TeamConfig:
                 raise SettingTypeError(
                     f"{name} must be a {kind.__name__}, got {type(value).__name__}"
                 )
+        if self.merger != DEFAULT_PARAMS and self.method != DEFAULT_METHOD:
+            raise ValueError(
+                f"merger sets the {DEFAULT_METHOD!r} method's settings; the {self.method!r} "
+                f"method takes none (set method={DEFAULT_METHOD!r}, or leave merger as it is)"
+            )
+
+    def search_options(self) -> dict[str, TomographicParams]:
+        """The keyword arguments a global search of :attr:`method` takes from the team:
+        ``params=`` :attr:`merger` for the default method, none for the others."""
+        return {"params": self.merger} if self.method == DEFAULT_METHOD else {}

@@ -58,7 +58,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid, occupied_mask
-from merging.params import DEFAULT_PARAMS
 from merging.result import MergeResult
 from merging.tomographic.tracking import frame_matrix, frame_to_cells, track_transform
 from merging.validators import RngLike, as_generator
@@ -110,7 +109,7 @@ class TrackingEstimator:
 
     def __init__(self, config: TeamConfig, *, rng: RngLike = None) -> None:
         self.config = config
-        self._keep_params = config.tracker.keep_params()
+        self._keep_params = config.tracker.keep_params(config.merger)
         self._searches: Searches = searches(worker=config.merge_worker)
         self._rng = as_generator(rng)
         self._pairs: dict[tuple[int, int], _PairState] = {}
@@ -236,7 +235,7 @@ class TrackingEstimator:
             else:
                 loose = found
         elif searched is not None:
-            starts.append((searched, DEFAULT_PARAMS))
+            starts.append((searched, self.config.merger))
         for start, params in starts:  # 2. refine and verify on today's maps
             tracked = track_transform(grid_1, grid_2, start, params=params)
             if start is searched and tracked.accepted and not self._fits_closely(tracked):
@@ -246,7 +245,7 @@ class TrackingEstimator:
                 best = tracked
         walls = (self._wall_count(first, grid_1), self._wall_count(second, grid_2))
         if best is not None:
-            if best.confidence < DEFAULT_PARAMS.confidence.accept:  # kept, not found again
+            if best.confidence < self.config.merger.confidence.accept:  # kept, not found again
                 best = replace(best, evidence={**best.evidence, HELD_ONLY: 1.0})
             state.tracked = frame_matrix(best)
             state.rounds_tracked = 0 if found is not None else state.rounds_tracked + 1
@@ -319,7 +318,9 @@ class TrackingEstimator:
     ) -> None:
         """Start a global search whose result the pair's next round collects."""
         seed = int(self._rng.integers(SEED_BOUND))
-        state.pending = self._searches.submit(grid_1, grid_2, method=self.method, seed=seed)
+        state.pending = self._searches.submit(
+            grid_1, grid_2, method=self.method, seed=seed, options=self.config.search_options()
+        )
         state.search_on_round_maps = False
         state.walls_at_search = walls
         state.rounds_tracked = 0

@@ -294,7 +294,9 @@ class TeamMerger:
             if not isinstance(result, MergeResult):
                 raise TypeError(f"the estimator returned {type(result).__name__}, not MergeResult")
             return result
-        return estimate_transform(grids[i], grids[j], method=self.method, rng=self._rng)
+        return estimate_transform(
+            grids[i], grids[j], method=self.method, rng=self._rng, **self.config.search_options()
+        )
 
     def confirm(self, pair: tuple[int, int], result: MergeResult) -> int:
         """Step 2: take in this round's estimate of ``pair``; returns its run of consistent

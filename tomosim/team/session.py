@@ -179,7 +179,7 @@ class TeamSession:
         """The merger's pair estimator: the oracle's, the tracker (the default method,
         with tracking) or None (the method's own search every round); without a
         communication range as it is, else asked only for the pairs that can talk."""
-        method = self.config.method
+        method, options = self.config.method, self.config.search_options()
         base: PairEstimator | None = tracker
         if method == ORACLE:
             base = oracle_estimator(
@@ -195,7 +195,7 @@ class TeamSession:
                 return out_of_reach(i, j, method)
             if base is not None:
                 return base(i, j, grid_i, grid_j)
-            return estimate_transform(grid_i, grid_j, method=method, rng=rng)
+            return estimate_transform(grid_i, grid_j, method=method, rng=rng, **options)
 
         return estimate
 

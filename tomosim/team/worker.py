@@ -35,7 +35,7 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from concurrent import futures
 from concurrent.futures import Future
 from typing import Any, Protocol
@@ -56,9 +56,16 @@ class Searches(Protocol):
     """Something that runs global searches and hands back their results later."""
 
     def submit(
-        self, first: OccupancyGrid, second: OccupancyGrid, *, method: str, seed: int
+        self,
+        first: OccupancyGrid,
+        second: OccupancyGrid,
+        *,
+        method: str,
+        seed: int,
+        options: Mapping[str, Any] | None = None,
     ) -> Future[MergeResult]:
-        """Start ``estimate_transform(first, second, method=method, rng=seed)``."""
+        """Start ``estimate_transform(first, second, method=method, rng=seed, **options)``
+        (``options``: the method's settings, ``params=``)."""
         ...
 
     def wait(
@@ -70,23 +77,23 @@ class Searches(Protocol):
 
 
 def _search(
-    job: tuple[OccupancyGrid, OccupancyGrid, str, int],
+    job: tuple[OccupancyGrid, OccupancyGrid, str, int, Mapping[str, Any]],
     future: Future[MergeResult],
     *,
     as_worker: bool = False,
 ) -> None:
-    """Run a search job ``(first, second, method, seed)`` here, into ``future``.
+    """Run a search job ``(first, second, method, seed, options)`` here, into ``future``.
 
     ``as_worker``: under the worker's warning filters, Python's defaults (a warning
     is shown, never raised), whatever this process's are, so that a search taken
     back from the worker ends as it would have there.
     """
-    first, second, method, seed = job
+    first, second, method, seed, options = job
     with warnings.catch_warnings():
         if as_worker:
             warnings.resetwarnings()
         try:
-            future.set_result(estimate_transform(first, second, method=method, rng=seed))
+            future.set_result(estimate_transform(first, second, method=method, rng=seed, **options))
         except Exception as error:  # handed to the caller, as the worker does
             future.set_exception(error)
 
@@ -95,11 +102,17 @@ class InlineSearches:
     """Runs each search at once, in this process; the result waits in a done future."""
 
     def submit(
-        self, first: OccupancyGrid, second: OccupancyGrid, *, method: str, seed: int
+        self,
+        first: OccupancyGrid,
+        second: OccupancyGrid,
+        *,
+        method: str,
+        seed: int,
+        options: Mapping[str, Any] | None = None,
     ) -> Future[MergeResult]:
         """Run the search now (see :class:`Searches`)."""
         future: Future[MergeResult] = Future()
-        _search((first, second, method, seed), future)
+        _search((first, second, method, seed, dict(options or {})), future)
         return future
 
     def wait(
@@ -272,10 +285,16 @@ class WorkerSearches:
         return cls.worker().wait_ready(timeout)
 
     def submit(
-        self, first: OccupancyGrid, second: OccupancyGrid, *, method: str, seed: int
+        self,
+        first: OccupancyGrid,
+        second: OccupancyGrid,
+        *,
+        method: str,
+        seed: int,
+        options: Mapping[str, Any] | None = None,
     ) -> Future[MergeResult]:
         """Queue the search for the worker (see :class:`Searches`)."""
-        return self.worker().submit((first, second, method, seed))
+        return self.worker().submit((first, second, method, seed, dict(options or {})))
 
     def wait(
         self, search: Future[MergeResult], others: Sequence[Future[MergeResult]]

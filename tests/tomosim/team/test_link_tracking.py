@@ -167,7 +167,7 @@ def test_a_search_taken_back_warns_as_in_the_worker_and_does_not_raise(
     grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
     taken: Future[MergeResult] = Future()
     with pytest.warns(RuntimeWarning, match="overflow"):
-        worker_module._search((grid, grid, "tomographic", 1), taken, as_worker=True)
+        worker_module._search((grid, grid, "tomographic", 1, {}), taken, as_worker=True)
     assert taken.exception() is None and not taken.result().accepted
 
 
@@ -411,3 +411,42 @@ def test_a_search_at_the_rounds_start_is_taken_as_it_found_it(
     lost = estimator(0, 1, grid, grid)  # the track, verified on that round's maps
     assert not lost.accepted
     assert estimator.tracked_groups(2) == (0, 1)
+
+
+def test_the_team_s_merger_settings_reach_its_searches_and_tracks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from merging.grid import OccupancyGrid
+    from merging.result import MergeResult
+    from merging.settings import with_settings
+    from tomosim.team import link_tracking as tracking_module
+    from tomosim.team import worker as worker_module
+
+    placed = np.eye(3)
+    placed[0, 2] = 10.0
+    searched = MergeResult(placed, 0.9, True, "tomographic", matrix_metres=placed)
+    asked: dict[str, object] = {}
+
+    def search(*args: object, **kwargs: object) -> MergeResult:
+        asked["search"] = kwargs.get("params")
+        return searched
+
+    def track(map1: object, map2: object, start: object, *, params: object) -> MergeResult:
+        asked.setdefault("tracks", []).append(params)  # type: ignore[union-attr]
+        return MergeResult(placed, 0.8, True, TRACKED, placed, evidence={"quality": 0.9})
+
+    monkeypatch.setattr(worker_module, "estimate_transform", search)
+    monkeypatch.setattr(tracking_module, "track_transform", track)
+    team = with_settings(INLINE, {"merger.robust.margin": "0.2"})
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
+    estimator = tracking_module.TrackingEstimator(team, rng=0)
+    estimator(0, 1, grid, grid)  # submits the search
+    assert estimator(0, 1, grid, grid).accepted  # collects it and starts a track
+    estimator(0, 1, grid, grid)  # keeps the track
+    assert asked["search"] == team.merger and team.merger.robust.margin == 0.2
+    first, kept = asked["tracks"]  # type: ignore[misc]
+    assert first == team.merger
+    assert kept.robust.margin == 0.2  # the kept track's: the team's, at keep_confidence
+    assert kept.confidence.accept == team.tracker.keep_confidence
+    with pytest.raises(ValueError, match="the 'spectral' method takes none"):
+        TeamConfig(method="spectral", merger=team.merger)
