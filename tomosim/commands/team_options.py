@@ -53,7 +53,8 @@ def add_team_arguments(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=VALUE",
         help="set any other team setting by its dotted name, e.g. confirmations=3, "
-        "tracker.keep_confidence=0.55, simulation.lidar.beams=180 (repeatable; the names: "
+        "tracker.keep_confidence=0.55, merger.confidence.accept=0.7, "
+        "simulation.lidar.beams=180 (repeatable; the names: "
         "tomosim.team.overrides.setting_names())",
     )
 
