@@ -35,11 +35,18 @@ Usage::
     python scripts/study_exploration.py                          # the whole study
     python scripts/study_exploration.py --worlds 0 1 2 --robots 4 --seeds 0 1 2 3
     python scripts/study_exploration.py --report-only            # tables and plots only
+    python scripts/study_exploration.py --worlds 0 --robots 4 --team confirmations=3 --out c3
+
+``--team NAME=VALUE`` (repeatable) sets a team setting by its dotted name for
+every episode (:mod:`tomosim.team.overrides`; the default merger's are
+``merger.*``); the folder records them in ``team_settings.json`` and refuses
+to resume with others.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -58,9 +65,13 @@ from exploration_study.runs import Grid, progress, read_rows, run_world
 from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
 from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
 
+from tomosim.commands import UsageError
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
+from tomosim.commands.team_options import team_settings
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
+from tomosim.team import TeamConfig
+from tomosim.team.overrides import changed_settings, with_settings
 
 OUTPUT = Path(__file__).resolve().parents[1] / "docs" / "figures" / "study_exploration"
 """Default folder of the outputs."""
@@ -85,7 +96,7 @@ def stages(
     aces3 = [w for w in real if w.label == "aces3"]
 
     def part(robots: tuple[int, ...], policies: tuple[str, ...], comm: float | None = None) -> Grid:
-        return Grid(robots, policies, grid.methods, grid.seeds, grid.alone, comm)
+        return Grid(robots, policies, grid.methods, grid.seeds, grid.alone, comm, grid.team)
 
     out: list[tuple[StudyWorld, Grid]] = []
     if mine:
@@ -111,9 +122,12 @@ def report(
     for metres in comm_ranges:
         found = read_rows(out, worlds, metres)
         limited[metres] = {label: cells(r) for label, r in found.items() if r}
+    changed = changed_settings(grid.team)
+    named = ", ".join(f"`{name}={value}`" for name, value in changed.items())
     text = [
         f"# Exploration study: time to 90 % coverage, policy `{policy}`",
         "",
+        *([f"Team settings changed (`--team`): {named}.", ""] if changed else []),
         "Median over seeds (min-max in brackets) of the simulated seconds until the team "
         "knows 90 % of the free space; `> cap`: fewer than half the episodes got there.",
         "",
@@ -175,6 +189,36 @@ def progress_table(
     return "\n".join(lines)
 
 
+TEAM_FILE = "team_settings.json"
+"""The file in ``--out`` naming the team settings its episodes ran with (none: the defaults)."""
+
+
+def study_team(pairs: list[str], out: Path) -> TeamConfig:
+    """The team ``--team`` asks for; :class:`UsageError` for a bad setting, or for a folder
+    whose episodes ran with other settings (resuming would mix two teams' rows)."""
+    try:
+        team = with_settings(TeamConfig(), team_settings(pairs))
+    except ValueError as error:
+        raise UsageError(f"--team: {error}") from None
+    recorded = out / TEAM_FILE
+    before = json.loads(recorded.read_text()) if recorded.is_file() else {}
+    now = json.loads(json.dumps(changed_settings(team)))
+    has_rows = any(out.glob("episodes_*.csv"))
+    if has_rows and before != now:
+        raise UsageError(
+            f"{out} holds episodes run with team settings {before or 'the defaults'}, not "
+            f"{now or 'the defaults'}; give another --out for these settings"
+        )
+    return team
+
+
+def record_team(team: TeamConfig, out: Path) -> None:
+    """Write the team settings the study changed to ``out`` (nothing for the defaults)."""
+    changed = changed_settings(team)
+    if changed:
+        (out / TEAM_FILE).write_text(json.dumps(changed, indent=2) + "\n")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -197,9 +241,15 @@ def main(argv: list[str] | None = None) -> int:
     )  # fmt: skip
     parser.add_argument("--executor", choices=EXECUTORS, default="process")
     parser.add_argument("--workers", type=positive_int, help="local processes (default: all cores)")
+    parser.add_argument(
+        "--team", action="append", default=[], metavar="NAME=VALUE",
+        help="a team setting by its dotted name for every episode, e.g. "
+        "merger.confidence.accept=0.7 (repeatable; a folder holds one team's episodes)",
+    )  # fmt: skip
     parser.add_argument("--out", type=Path, default=OUTPUT, help="folder of the outputs")
     parser.add_argument("--report-only", action="store_true", help="run nothing, only report")
     args = parser.parse_args(argv)
+    team = study_team(args.team, args.out)
     if args.steps is not None and args.steps < 1:
         parser.error(f"--steps must be at least 1, got {args.steps}")
     unknown = [p for p in (*args.policies, args.policy) if p not in chooser_names()]
@@ -212,8 +262,10 @@ def main(argv: list[str] | None = None) -> int:
         tuple(args.methods),
         tuple(args.seeds),
         args.policy,
+        team=team,
     )
     args.out.mkdir(parents=True, exist_ok=True)
+    record_team(team, args.out)
     if not args.report_only:
         try:
             for world, part in stages(worlds, grid, args.policy, tuple(args.comm_ranges)):

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,8 @@ class Grid:
     """The policy of the episodes in which no robot is linked (module docstring)."""
     comm_range: float | None = None
     """Metres over which robots talk (None: unlimited)."""
+    team: TeamConfig = field(default_factory=TeamConfig)
+    """The team's settings but the communication range (``--team``)."""
 
 
 def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
@@ -50,7 +52,7 @@ def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
         "worlds": (world.spec,),
         "seeds": grid.seeds,
         "steps": world.steps,
-        "team": TeamConfig(comms=CommsConfig(grid.comm_range)),
+        "team": replace(grid.team, comms=CommsConfig(grid.comm_range)),
     }
     out = []
     teams = tuple(n for n in grid.robots if n > 1)

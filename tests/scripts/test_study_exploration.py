@@ -103,3 +103,28 @@ def test_the_report_only_run_writes_the_oracle_section(study, tmp_path: Path) ->
     )
     written = (tmp_path / "study_exploration.md").read_text()
     assert "## Against the oracle (generated floors, 4 robots)" in written
+
+
+def test_team_settings_reach_the_episodes_and_a_folder_keeps_one_team(
+    study, tmp_path: Path
+) -> None:
+    from tests.support import load_script
+    from tomosim.commands import UsageError
+
+    script = load_script("study_exploration")
+    from exploration_study.runs import plans
+    from exploration_study.worlds import resolve
+
+    team = script.study_team(["merger.robust.margin=0.2", "confirmations=3"], tmp_path)
+    assert team.merger.robust.margin == 0.2 and team.confirmations == 3
+    grid = script.Grid((4,), ("utility",), ("tomographic",), (0,), "utility", 5.0, team)
+    (plan,) = plans(resolve("0", 20), grid)
+    assert plan.team.confirmations == 3 and plan.team.merger.robust.margin == 0.2
+    assert plan.team.comms.range == 5.0  # the study's own range, over --team's
+    script.record_team(team, tmp_path)
+    (tmp_path / "episodes_floor0.csv").write_text("key\n")
+    assert script.study_team(["confirmations=3", "merger.robust.margin=0.2"], tmp_path) == team
+    with pytest.raises(UsageError, match="give another --out"):
+        script.study_team([], tmp_path)
+    with pytest.raises(UsageError, match="--team: no team setting named 'confirm'"):
+        script.study_team(["confirm=3"], tmp_path / "new")

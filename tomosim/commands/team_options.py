@@ -16,6 +16,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from merging.api import DEFAULT_METHOD
+from merging.params import DEFAULT_PARAMS
 from merging.validators import real_number, whole_number
 from tomosim.commands import UsageError
 from tomosim.team import CommsConfig, TeamConfig
@@ -77,9 +79,16 @@ def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
             comms=CommsConfig(args.comm_range, args.line_of_sight),
             **fields,
         )
-        return with_settings(team, settings)
+        team = with_settings(team, settings)
     except ValueError as error:
         raise UsageError(f"--team: {error}" if settings else str(error)) from None
+    method = fields.get("method", DEFAULT_METHOD)
+    if method != DEFAULT_METHOD and team.merger != DEFAULT_PARAMS:
+        raise UsageError(
+            f"--team merger.*: the {method!r} method takes no merger settings; they set "
+            f"the {DEFAULT_METHOD!r} method's"
+        )
+    return team
 
 
 OWN_OPTIONS = {

@@ -180,8 +180,8 @@ class TeamConfig:
         searches and tracking (a kept track's threshold is
         ``tracker.keep_confidence`` still); by name on the command line as
         ``--team merger.confidence.accept=0.7`` (:mod:`merging.settings`).
-        Other methods take no settings: changed, it needs
-        ``method="tomographic"``.
+        Other methods take no settings and leave it unused (a sweep over
+        methods applies it to the default method's episodes).
     merge_worker : bool
         Run the tracker's global searches in a worker process (the results,
         collected at a fixed later round, are the same either way).
@@ -240,11 +240,6 @@ class TeamConfig:
                 raise SettingTypeError(
                     f"{name} must be a {kind.__name__}, got {type(value).__name__}"
                 )
-        if self.merger != DEFAULT_PARAMS and self.method != DEFAULT_METHOD:
-            raise ValueError(
-                f"merger sets the {DEFAULT_METHOD!r} method's settings; the {self.method!r} "
-                f"method takes none (set method={DEFAULT_METHOD!r}, or leave merger as it is)"
-            )
 
     def search_options(self) -> dict[str, TomographicParams]:
         """The keyword arguments a global search of :attr:`method` takes from the team:

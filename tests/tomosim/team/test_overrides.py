@@ -61,3 +61,9 @@ def test_the_command_line_sets_team_settings_by_name(capsys) -> None:
     status, _, err = run(["sweep", "--team", "confirmations=0", "--out", "x.csv"], capsys)
     assert status == 2
     assert_one_line_error(err, "--team: confirmations must be a whole number")
+    status, _, err = run(
+        ["explore", "--method", "spectral", "--team", "merger.robust.margin=0.2", "--no-record"],
+        capsys,
+    )
+    assert status == 2
+    assert_one_line_error(err, "the 'spectral' method takes no merger settings")
