@@ -132,16 +132,17 @@ def cycles(answers: list[Answer], walls: dict[str, NDArray]) -> list[tuple[str, 
 
 
 def refused_against_cycles(
-    answers: list[Answer], walls: dict[str, NDArray], look: float
+    answers: list[Answer], walls: dict[str, NDArray]
 ) -> list[tuple[str, str, float | None, str]]:
     """``(a, c, error, reason)`` for every refused pair: how far (cells RMS over ``c``'s
     walls, the median over every ``b``) its answer lies from the chain of two accepted
     answers ``a <- b <- c``; None when no such chain exists.
 
-    A refused answer within ``look`` of the chains is a right answer the verdict
-    did not vouch for; one beyond :data:`WRONG_CELLS`, a wrong answer rightly
-    refused. So the refusals split, without a known truth, into what the
-    verdict's caution costs and what the search misses.
+    A refused answer within a few tens of cells of the chains (the report's
+    ``--look-cells``) is a right answer the verdict did not vouch for; one
+    beyond :data:`WRONG_CELLS`, a wrong answer rightly refused. So the refusals
+    split, without a known truth, into what the verdict's caution costs and what
+    the search misses.
     """
     found = {(x.first, x.second): x.matrix for x in answers if x.accepted}
 
@@ -228,7 +229,7 @@ def report(
     ]
     for (floor, method), checked in refused.items():
         errors = np.array([e for _, _, e, _ in checked if e is not None])
-        near, far = int((errors <= look).sum()), int((errors > WRONG_CELLS).sum())
+        near, far = int((errors <= look).sum()), int((errors > max(look, WRONG_CELLS)).sum())
         lines.append(
             f"| {floor} | {method} | {len(checked)} | {near} | {len(errors) - near - far} | "
             f"{far} | {len(checked) - len(errors)} |"
@@ -277,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
             for method in args.methods:
                 mine = [x for x in found if x.method == method]
                 closed[(floor, method)] = cycles(mine, walls)
-                refused[(floor, method)] = refused_against_cycles(mine, walls, args.look_cells)
+                refused[(floor, method)] = refused_against_cycles(mine, walls)
                 if not args.overlays:
                     continue
                 named = {p for t in closed[(floor, method)] if t[3] > args.look_cells

@@ -42,7 +42,7 @@ import numpy as np
 
 import merging
 from merging.evaluation.pairs import cut_window_pairs
-from tomosim.commands.merger_options import add_merger_argument, merger_params
+from tomosim.commands.merger_options import add_merger_argument, changed, merger_params
 from tomosim.commands.script_args import run_script
 from tomosim.data import maps_dir, maps_missing
 
@@ -175,6 +175,10 @@ def main(argv: list[str] | None = None) -> int:
         if handle is not None:
             handle.close()
     seconds = time.perf_counter() - clock
+    settings = changed(params)
+    if settings:
+        listed = ", ".join(f"{name}={value}" for name, value in settings.items())
+        print(f"default merger's settings changed (--merger): {listed}")
     if args.out is not None:
         print(f"wrote the answers to {args.out} ({seconds:.0f} s)")
         return 0

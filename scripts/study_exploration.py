@@ -65,9 +65,9 @@ from exploration_study.runs import Grid, progress, read_rows, run_world
 from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
 from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
 
+from merging.settings import parse_assignments
 from tomosim.commands import UsageError
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
-from tomosim.commands.team_options import team_settings
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
 from tomosim.team import TeamConfig
@@ -197,7 +197,13 @@ def study_team(pairs: list[str], out: Path) -> TeamConfig:
     """The team ``--team`` asks for; :class:`UsageError` for a bad setting, or for a folder
     whose episodes ran with other settings (resuming would mix two teams' rows)."""
     try:
-        team = with_settings(TeamConfig(), team_settings(pairs))
+        settings = parse_assignments(pairs, option="--team", example="confirmations=3")
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    if "comms.range" in settings:
+        raise UsageError("--team comms.range: the study's ranges are --comm-ranges")
+    try:
+        team = with_settings(TeamConfig(), settings)
     except ValueError as error:
         raise UsageError(f"--team: {error}") from None
     recorded = out / TEAM_FILE
@@ -213,10 +219,9 @@ def study_team(pairs: list[str], out: Path) -> TeamConfig:
 
 
 def record_team(team: TeamConfig, out: Path) -> None:
-    """Write the team settings the study changed to ``out`` (nothing for the defaults)."""
-    changed = changed_settings(team)
-    if changed:
-        (out / TEAM_FILE).write_text(json.dumps(changed, indent=2) + "\n")
+    """Write the team settings the study changed to ``out`` (``{}``: the defaults), so that
+    the next run into ``out`` can tell whether it runs the same team."""
+    (out / TEAM_FILE).write_text(json.dumps(changed_settings(team), indent=2) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:

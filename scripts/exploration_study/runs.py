@@ -27,7 +27,7 @@ from typing import Any
 
 from exploration_study.worlds import StudyWorld
 from tomosim.sweep import NO_MERGE, ResultsFile, SweepPlan, run_sweep
-from tomosim.team import CommsConfig, TeamConfig
+from tomosim.team import TeamConfig
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,7 +43,7 @@ class Grid:
     comm_range: float | None = None
     """Metres over which robots talk (None: unlimited)."""
     team: TeamConfig = field(default_factory=TeamConfig)
-    """The team's settings but the communication range (``--team``)."""
+    """The team's settings (``--team``); its communication range is :attr:`comm_range`."""
 
 
 def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
@@ -52,7 +52,7 @@ def plans(world: StudyWorld, grid: Grid) -> list[SweepPlan]:
         "worlds": (world.spec,),
         "seeds": grid.seeds,
         "steps": world.steps,
-        "team": replace(grid.team, comms=CommsConfig(grid.comm_range)),
+        "team": replace(grid.team, comms=replace(grid.team.comms, range=grid.comm_range)),
     }
     out = []
     teams = tuple(n for n in grid.robots if n > 1)

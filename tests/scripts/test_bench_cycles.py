@@ -54,13 +54,11 @@ def test_refused_answers_are_held_against_chains_of_accepted_ones() -> None:
         answer("b", "d", rigid_matrix(300.0, 0.0, 0.0) @ np.linalg.inv(c_in_b)),
         answer("d", "e", np.eye(3), accepted=False),  # no chain of accepted answers
     ]
-    checked = {
-        (a, c): error for a, c, error, _ in bench.refused_against_cycles(answers, grids, 30.0)
-    }
+    checked = {(a, c): error for a, c, error, _ in bench.refused_against_cycles(answers, grids)}
     assert set(checked) == {("a", "c"), ("c", "d"), ("d", "e")}
     assert checked[("a", "c")] == pytest.approx(3.0, abs=1e-6)
     assert checked[("c", "d")] > bench.WRONG_CELLS and checked[("d", "e")] is None
-    refused = {("F", "m"): bench.refused_against_cycles(answers, grids, 30.0)}
+    refused = {("F", "m"): bench.refused_against_cycles(answers, grids)}
     lines = bench.report(answers, {("F", "m"): bench.cycles(answers, grids)}, refused, 30.0)
     assert "| F | m | 3 | 1 | 0 | 1 | 1 |" in lines
 

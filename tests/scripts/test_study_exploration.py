@@ -128,3 +128,17 @@ def test_team_settings_reach_the_episodes_and_a_folder_keeps_one_team(
         script.study_team([], tmp_path)
     with pytest.raises(UsageError, match="--team: no team setting named 'confirm'"):
         script.study_team(["confirm=3"], tmp_path / "new")
+    with pytest.raises(UsageError, match="--comm-ranges"):
+        script.study_team(["comms.range=5"], tmp_path / "new")
+    # Every other team setting, those explore has options for included.
+    assert script.study_team(["merge_interval=25"], tmp_path / "new").merge_interval == 25
+    # A run that recorded its settings but wrote no episode, then one with the defaults:
+    # the folder says the defaults, and resuming it with the first settings is refused.
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    script.record_team(team, empty)
+    script.record_team(script.study_team([], empty), empty)
+    (empty / "episodes_floor0.csv").write_text("key\n")
+    assert script.study_team([], empty) == script.TeamConfig()
+    with pytest.raises(UsageError, match="give another --out"):
+        script.study_team(["confirmations=3", "merger.robust.margin=0.2"], empty)
