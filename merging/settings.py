@@ -8,7 +8,7 @@ values, or from their text as a command line gives them, converted by the
 field's type); :func:`changed_settings` lists those in which a settings
 object differs from another. Settings holding several values (the
 refinement schedule, field widths) have no name: set them in Python with
-:func:`dataclasses.replace`.
+``dataclasses.replace``.
 
 The same names reach the settings from the command line:
 ``tomosim merge --merger confidence.accept=0.5`` and the benchmark scripts'
