@@ -8,26 +8,36 @@ import pytest
 from merging.transforms import rigid_matrix
 from tests.support import load_script
 
+B_IN_A, C_IN_B = rigid_matrix(12.0, -3.0, 0.2), rigid_matrix(-4.0, 7.0, -0.5)
+"""Two accepted answers: session b placed in a, c placed in b."""
+
+
+def sessions(names: str) -> dict[str, np.ndarray]:
+    """Sessions named by the letters of ``names``, each an L of walls (an answer's error is
+    measured over them)."""
+    walls = np.zeros((60, 60), dtype=np.int8)
+    walls[10, 5:55] = walls[5:55, 40] = 100
+    return {name: walls for name in names}
+
+
+def answer(bench, first: str, second: str, matrix, accepted: bool = True):
+    return bench.Answer("F", first, second, "m", accepted, 0.9, 0.01, matrix, "")
+
 
 def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> None:
     bench = load_script("bench_cycles")
-    walls = np.zeros((60, 60), dtype=np.int8)
-    walls[10, 5:55] = walls[5:55, 40] = 100
-    grids = {name: walls for name in "abcd"}
-    b_in_a, c_in_b = rigid_matrix(12.0, -3.0, 0.2), rigid_matrix(-4.0, 7.0, -0.5)
-
-    def answer(first: str, second: str, matrix, accepted: bool = True):
-        return bench.Answer("F", first, second, "m", accepted, 0.9, 0.01, matrix, "")
-
+    grids = sessions("abcd")
+    b_in_a, c_in_b = B_IN_A, C_IN_B
     consistent = [
-        answer("a", "b", b_in_a),
-        answer("b", "c", c_in_b),
-        answer("a", "c", b_in_a @ c_in_b),
-        answer("a", "d", np.eye(3), accepted=False),  # no cycle through a refused pair
+        answer(bench, "a", "b", b_in_a),
+        answer(bench, "b", "c", c_in_b),
+        answer(bench, "a", "c", b_in_a @ c_in_b),
+        answer(bench, "a", "d", np.eye(3), accepted=False),  # no cycle through a refused pair
     ]
     [(a, b, c, error)] = bench.cycles(consistent, grids)
     assert (a, b, c) == ("a", "b", "c") and error < 1e-9
-    wrong = [*consistent[:2], answer("a", "c", rigid_matrix(300.0, 0.0, 0.0) @ b_in_a @ c_in_b)]
+    far = rigid_matrix(300.0, 0.0, 0.0) @ b_in_a @ c_in_b
+    wrong = [*consistent[:2], answer(bench, "a", "c", far)]
     [(_, _, _, error)] = bench.cycles(wrong, grids)
     assert error > bench.WRONG_CELLS
     lines = bench.report(wrong, {("F", "m"): bench.cycles(wrong, grids)}, {}, 30.0)
@@ -36,23 +46,17 @@ def test_a_cycle_closes_on_consistent_answers_and_misses_on_a_wrong_one() -> Non
 
 def test_refused_answers_are_held_against_chains_of_accepted_ones() -> None:
     bench = load_script("bench_cycles")
-    walls = np.zeros((60, 60), dtype=np.int8)
-    walls[10, 5:55] = walls[5:55, 40] = 100
-    grids = {name: walls for name in "abcde"}
-    b_in_a, c_in_b = rigid_matrix(12.0, -3.0, 0.2), rigid_matrix(-4.0, 7.0, -0.5)
-
-    def answer(first: str, second: str, matrix, accepted: bool = True):
-        return bench.Answer("F", first, second, "m", accepted, 0.9, 0.01, matrix, "why")
-
+    grids = sessions("abcde")
+    b_in_a, c_in_b = B_IN_A, C_IN_B
     answers = [
-        answer("a", "b", b_in_a),
-        answer("b", "c", c_in_b),
+        answer(bench, "a", "b", b_in_a),
+        answer(bench, "b", "c", c_in_b),
         # Refused but right: it agrees with a <- b <- c to a few cells.
-        answer("a", "c", rigid_matrix(3.0, 0.0, 0.0) @ b_in_a @ c_in_b, accepted=False),
+        answer(bench, "a", "c", rigid_matrix(3.0, 0.0, 0.0) @ b_in_a @ c_in_b, accepted=False),
         # Refused and wrong: hundreds of cells from the chain c <- b <- d.
-        answer("c", "d", rigid_matrix(0.0, 0.0, 0.0), accepted=False),
-        answer("b", "d", rigid_matrix(300.0, 0.0, 0.0) @ np.linalg.inv(c_in_b)),
-        answer("d", "e", np.eye(3), accepted=False),  # no chain of accepted answers
+        answer(bench, "c", "d", rigid_matrix(0.0, 0.0, 0.0), accepted=False),
+        answer(bench, "b", "d", rigid_matrix(300.0, 0.0, 0.0) @ np.linalg.inv(c_in_b)),
+        answer(bench, "d", "e", np.eye(3), accepted=False),  # no chain of accepted answers
     ]
     checked = {(a, c): error for a, c, error, _ in bench.refused_against_cycles(answers, grids)}
     assert set(checked) == {("a", "c"), ("c", "d"), ("d", "e")}

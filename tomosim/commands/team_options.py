@@ -18,6 +18,7 @@ from typing import Any
 
 from merging.api import DEFAULT_METHOD
 from merging.params import DEFAULT_PARAMS
+from merging.settings import parse_assignments
 from merging.validators import real_number, whole_number
 from tomosim.commands import UsageError
 from tomosim.team import CommsConfig, TeamConfig
@@ -104,13 +105,11 @@ OWN_OPTIONS = {
 def team_settings(pairs: list[str]) -> dict[str, str]:
     """The ``NAME=VALUE`` pairs of ``--team`` as a mapping; :class:`UsageError` for a pair
     that is not one, or a setting that has its own option."""
-    settings: dict[str, str] = {}
-    for pair in pairs:
-        name, equals, value = pair.partition("=")
-        name = name.strip()
-        if not equals or not name or not value.strip():
-            raise UsageError(f"--team takes NAME=VALUE (e.g. confirmations=3), got {pair!r}")
+    try:
+        settings = parse_assignments(pairs, option="--team", example="confirmations=3")
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    for name in settings:
         if name in OWN_OPTIONS:
             raise UsageError(f"--team {name}: use {OWN_OPTIONS[name]} instead")
-        settings[name] = value
     return settings
