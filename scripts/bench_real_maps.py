@@ -43,6 +43,10 @@ tells a miss of the search from a pair whose overlap cannot vouch for any
 placement: what the verdict accepts there bounds what a better search could
 add. It accepts a little more than a perfect search would, as it skips the two
 checks that need a search (the best different placement, map 2's mirror image).
+With it comes a row ``truth_in_search``: the same refinement judged in the place
+of the search's winner, against the search's pool and map 2's mirror image by the
+full verdict (``refine_from(..., held_against_search=True)``), what a search that
+always found the truth would accept under today's verdict.
 
 Usage::
 
@@ -90,6 +94,10 @@ OPENCV_METHODS = ("ros_akaze", "ros_orb")
 OPENCV_INSTALL = 'pip install "tomosim[opencv]"'
 FROM_TRUTH = "from_truth"
 """The row of ``--from-truth``: the default's verdict on its refinement of the true transform."""
+TRUTH_IN_SEARCH = "truth_in_search"
+"""The other row of ``--from-truth``: that refinement judged against the search's pool and
+map 2's mirror image, in the place of the search's winner."""
+TRUTH_ROWS = (FROM_TRUTH, TRUTH_IN_SEARCH)
 WINDOW_RIGHT_CELLS = 2.0
 """A window merge is right within this RMS error, as in ``bench_merge.py``."""
 CROP_RIGHT_CELLS = 1.0
@@ -240,11 +248,13 @@ def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle,
     for count, case in enumerate(cases, start=1):
         default_matrix = None
         for method in methods:
-            if method == FROM_TRUTH and case.truth is None:
+            if method in TRUTH_ROWS and case.truth is None:
                 continue
             start, cpu_start = time.perf_counter(), time.process_time()
-            if method == FROM_TRUTH:
-                result = refine_from(case.map1, case.map2, case.truth, **settings)
+            if method in TRUTH_ROWS:
+                result = refine_from(case.map1, case.map2, case.truth,
+                                     held_against_search=method == TRUTH_IN_SEARCH,
+                                     **settings)  # fmt: skip
             else:
                 options = settings if method == DEFAULT_METHOD else {}
                 result = merging.estimate_transform(case.map1, case.map2, method=method,
@@ -366,9 +376,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--from-truth",
         action="store_true",
-        help=f"add a row '{FROM_TRUTH}' per pair with a known transform: the default's "
-        "verdict on its refinement started at the truth (a bound on what a better search "
-        "could add; it skips the checks that need a search)",
+        help=f"add rows '{FROM_TRUTH}' and '{TRUTH_IN_SEARCH}' per pair with a known "
+        "transform: the default's verdict on its refinement started at the truth, without "
+        "the checks that need a search, and with them, against the search's own pool "
+        "(bounds on what a better search could add)",
     )
     add_merger_argument(parser)
     parser.add_argument("--out", type=Path, default=Path("results/bench_real_maps"))
@@ -387,7 +398,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     methods = available(list(args.methods))
     if args.from_truth:
-        methods.append(FROM_TRUTH)
+        methods += TRUTH_ROWS
     if args.suite == "sessions":
         cases = session_cases(args.every)
     elif args.suite == "whole":

@@ -109,7 +109,7 @@ from merging.evidence.verify import prepare_map
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, TomographicParams
 from merging.result import Hypothesis, MergeResult
-from merging.tomographic.candidates import SearchMaps, finished, rank
+from merging.tomographic.candidates import SearchMaps, finished, rank, rms_between
 from merging.tomographic.correlate import coarse_factor
 from merging.tomographic.hypotheses import search_pool
 from merging.tomographic.judging import bent_compromise, close_alternative, judged, judged_first
@@ -201,6 +201,7 @@ def refine_from(
     matrix: NDArray[np.float64],
     *,
     params: TomographicParams = DEFAULT_PARAMS,
+    held_against_search: bool = False,
 ) -> MergeResult:
     """Refine a given transform (map 2 cells -> map 1 cells) and verify it, without a search.
 
@@ -213,6 +214,14 @@ def refine_from(
     against both (as a tracked transform does: :mod:`merging.tomographic.tracking`).
     Much cheaper than :func:`tomographic_merge`.
 
+    With ``held_against_search`` the search runs too, and the refined
+    transform is judged in the place of its winner: first in its pool,
+    against the best different placements and map 2's mirror image, by the
+    full verdict (steps 5-6). Started at the truth, that is what a search
+    that always found the truth would give under today's verdict: a bound
+    that tells the search's misses from the verdict's refusals
+    (``scripts/bench_real_maps.py --from-truth``). It costs a search.
+
     Parameters
     ----------
     map1, map2 : OccupancyGrid or (rows, cols) array
@@ -222,6 +231,9 @@ def refine_from(
         The starting transform, map 2 cells -> map 1 cells.
     params : TomographicParams
         Settings; ``from_start`` is the refinement run.
+    held_against_search : bool
+        Judge the refined transform against the search's pool and map 2's
+        mirror image too (see above).
 
     Raises
     ------
@@ -282,7 +294,20 @@ def refine_from(
     hypotheses = (
         Hypothesis(best, rank(check), check.agreement, check.conflict, int(check.overlap)),
     )
-    result = judged(maps, refined[1], (None, None), hypotheses, timings, mirror_check=False)
+    if held_against_search:
+        coarse_cells = params.translation.coarse_cells
+        factor = coarse_factor(crop1.shape, crop2.shape, coarse_cells=coarse_cells)
+        # The search's placements, but those that are the refined one found again.
+        rivals = [
+            candidate
+            for candidate in search_pool(maps, factor, timings)
+            if rms_between(candidate[1], refined[1], second.points) > params.distinct_cells
+        ]
+        result = judged_first(maps, [refined, *rivals], hypotheses, timings)
+        # The verdict may move it (halfway between both ways round, or the compromise).
+        best = into1 @ result.matrix @ out_of2
+    else:
+        result = judged(maps, refined[1], (None, None), hypotheses, timings, mirror_check=False)
     timings["total"] = time.perf_counter() - clock
     return _with_metres(replace(result, matrix=best), map1, map2)
 

@@ -57,12 +57,15 @@ def test_from_truth_rows_judge_the_truth_and_skip_pairs_without_one() -> None:
     ]
     handle = io.StringIO()
     writer = csv.DictWriter(handle, fieldnames=list(bench.Row.__dataclass_fields__))
-    rows = bench.run(iter(cases), ["tomographic", bench.FROM_TRUTH], 0, writer, handle)
+    rows = bench.run(iter(cases), ["tomographic", *bench.TRUTH_ROWS], 0, writer, handle)
     assert [(r.pair, r.method) for r in rows] == [
         ("turned", "tomographic"),
         ("turned", bench.FROM_TRUTH),
+        ("turned", bench.TRUTH_IN_SEARCH),
         ("same", "tomographic"),
     ]
+    # Judged against the search's own pool too, the building's truth holds: no rival.
+    assert rows[2].accepted and rows[2].right == "yes"
     judged = rows[1]
     # Refined from the truth itself, the building's walls hold it: accepted, in place.
     assert judged.accepted and judged.right == "yes" and judged.rms_cells < 0.5

@@ -399,3 +399,21 @@ def test_a_search_of_the_same_map_1_reuses_its_images_whatever_the_shifts_it_kee
         candidates.SearchMaps(
             first, second, replace(DEFAULT_PARAMS, translation=blurred), begun=maps
         )
+
+
+def test_the_truth_held_against_the_search_meets_the_rival_the_search_ranked_first(
+    maps_folder,
+) -> None:
+    # Windows of intel sharing 3-15 % (bench_real_maps.py low-overlap, seed 2026, pair
+    # 22): the search's winner lies 355 cells off and is refused. Refined from the truth
+    # the overlap vouches for the placement (no search, no rival); judged in the place
+    # of the search's winner, the placement the search ranked first is a rival that
+    # explains as much, turned half a turn: a perfect search would be refused here too.
+    whole = merging.load_map(maps_folder / "intel.yaml").data
+    pair = cut_window_pairs(whole, count=23, overlap_range=(0.03, 0.15), rng=2026)[22]
+    alone = search.refine_from(pair.map1, pair.map2, pair.truth)
+    assert alone.accepted
+    held = search.refine_from(pair.map1, pair.map2, pair.truth, held_against_search=True)
+    assert not held.accepted
+    assert held.reason.startswith("ambiguous: another placement about as good lies 355 cells")
+    assert transform_error(held.matrix, pair.truth, pair.map2)[0] < 1.0
