@@ -9,7 +9,7 @@ pool is asked again: without the runner-ups that only lacked the narrow
 refinement (:func:`judged_first`, :func:`rivals_that_stay`), as the rigid
 compromise between two placements of maps that bend (:func:`bent_compromise`),
 and for a placement whose walls meet exactly that the ranking put lower
-(:func:`close_alternative`).
+(:func:`close_alternative`). :func:`verdict_on_pool` walks that sequence.
 """
 
 from __future__ import annotations
@@ -316,3 +316,42 @@ def judged(
         reason=reason,
         evidence=evidence,
     )
+
+
+def verdict_on_pool(
+    maps: SearchMaps,
+    pool: list[Candidate],
+    hypotheses: tuple[Hypothesis, ...],
+    timings: dict[str, float],
+) -> MergeResult:
+    """Steps 5-6 on a pool, its first placement the one to judge: the default's verdict.
+
+    The first placement is judged against the rest (:func:`judged_first`);
+    refused, as the rigid compromise with a near rival of maps that bend
+    (:func:`bent_compromise`); and still refused, the placement whose walls
+    meet exactly that the ranking put lower (:func:`close_alternative`) is
+    judged against all the others. The first accepted is the answer, else the
+    first placement's refusal.
+    """
+    result = judged_first(maps, pool, hypotheses, timings)
+    if result.accepted:
+        return result
+    bent = bent_compromise(maps, pool, hypotheses, timings, result.evidence)
+    if bent is not None and bent.accepted:
+        return bent
+    if bent is not None:
+        result = replace(
+            result,
+            reason=f"{result.reason}; taken for one answer on maps that bend, the compromise "
+            f"between the two is refused too: {bent.reason}",
+            evidence={**result.evidence, "bent_compromise_confidence": bent.confidence},
+        )
+    # The best by score is refused: a placement whose walls meet exactly may explain a
+    # small overlap that the score, preferring much shared space, ranked below a loose
+    # large one. Such a placement is judged too, against all the others.
+    close = close_alternative(maps, pool)
+    if close is None:
+        return result
+    pool = [finished(maps, pool[close]), *pool[:close], *pool[close + 1 :]]
+    alternative = judged_first(maps, pool, hypotheses, timings, by_net=True)
+    return alternative if alternative.accepted else result

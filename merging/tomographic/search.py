@@ -109,10 +109,10 @@ from merging.evidence.verify import prepare_map
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, TomographicParams
 from merging.result import Hypothesis, MergeResult
-from merging.tomographic.candidates import SearchMaps, finished, rank, rms_between
+from merging.tomographic.candidates import SearchMaps, rank, rms_between
 from merging.tomographic.correlate import coarse_factor
 from merging.tomographic.hypotheses import search_pool
-from merging.tomographic.judging import bent_compromise, close_alternative, judged, judged_first
+from merging.tomographic.judging import judged, verdict_on_pool
 from merging.transforms import cells_to_metres, translation_matrix
 
 
@@ -171,28 +171,7 @@ def _merge_observed(
     hypotheses = tuple(
         Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
     )
-    result = judged_first(maps, pool, hypotheses, timings)
-    if result.accepted:
-        return result
-    bent = bent_compromise(maps, pool, hypotheses, timings, result.evidence)
-    if bent is not None and bent.accepted:
-        return bent
-    if bent is not None:
-        result = replace(
-            result,
-            reason=f"{result.reason}; taken for one answer on maps that bend, the compromise "
-            f"between the two is refused too: {bent.reason}",
-            evidence={**result.evidence, "bent_compromise_confidence": bent.confidence},
-        )
-    # The best by score is refused: a placement whose walls meet exactly may explain a
-    # small overlap that the score, preferring much shared space, ranked below a loose
-    # large one. Such a placement is judged too, against all the others.
-    close = close_alternative(maps, pool)
-    if close is None:
-        return result
-    pool = [finished(maps, pool[close]), *pool[:close], *pool[close + 1 :]]
-    alternative = judged_first(maps, pool, hypotheses, timings, by_net=True)
-    return alternative if alternative.accepted else result
+    return verdict_on_pool(maps, pool, hypotheses, timings)
 
 
 def refine_from(
@@ -217,7 +196,9 @@ def refine_from(
     With ``held_against_search`` the search runs too, and the refined
     transform is judged in the place of its winner: first in its pool,
     against the best different placements and map 2's mirror image, by the
-    full verdict (steps 5-6). Started at the truth, that is what a search
+    full verdict (steps 5-6, :func:`~merging.tomographic.judging.verdict_on_pool`,
+    which may also settle on the rigid compromise or another placement of
+    the pool, as it does for the search's winner). Started at the truth, that is what a search
     that always found the truth would give under today's verdict: a bound
     that tells the search's misses from the verdict's refusals
     (``scripts/bench_real_maps.py --from-truth``). It costs a search.
@@ -303,7 +284,7 @@ def refine_from(
             for candidate in search_pool(maps, factor, timings)
             if rms_between(candidate[1], refined[1], second.points) > params.distinct_cells
         ]
-        result = judged_first(maps, [refined, *rivals], hypotheses, timings)
+        result = verdict_on_pool(maps, [refined, *rivals], hypotheses, timings)
         # The verdict may move it (halfway between both ways round, or the compromise).
         best = into1 @ result.matrix @ out_of2
     else:
