@@ -35,6 +35,32 @@ def test_a_suite_of_two_groups_ends_with_their_pooled_medians() -> None:
     assert not any(line.startswith("| all pairs |") for line in single)
 
 
+def test_window_pairs_are_also_summed_up_per_map() -> None:
+    bench = load_script("bench_real_maps")
+
+    def row(pair: str, method: str, seconds: float, right: str = "yes"):
+        return bench.Row(
+            "low-overlap", "w", pair, method, 1.0, 2.0, right, True, 0.9, seconds, seconds, 0.0, ""
+        )
+
+    # The other method is ten times slower on the large map and five times faster on
+    # the small one; a pair without '#' (not a window) and one without a truth are left out.
+    rows = [row(f"large#{k}", "default", 0.020) for k in range(2)]
+    rows += [row(f"large#{k}", "other", 0.200) for k in range(2)]
+    rows += [row("small#0", "default", 0.010), row("small#1", "default", 0.010, "no")]
+    rows += [row(f"small#{k}", "other", 0.002) for k in range(2)]
+    rows += [row("hall", "default", 9.0), row("large#9", "default", 9.0, "unknown")]
+    lines = bench.by_map_table(rows, ["default", "other"])
+    table = {tuple(line.split(" | ")[:2]): line for line in lines[5:]}
+    assert set(table) == {("| large", "default"), ("| large", "other"), ("| small", "default"),
+                          ("| small", "other")}  # fmt: skip
+    assert table[("| large", "other")].endswith("| 0.2000 | 10.00 |")
+    assert table[("| small", "other")].endswith("| 0.0020 | 0.20 |")
+    # One of small's two default pairs is accepted but wrong.
+    assert "| 2 | 50.0% | 1 | 0.0100 | 1.00 |" in table[("| small", "default")]
+    assert bench.by_map_table([r for r in rows if r.pair.startswith("large")], ["default"]) == []
+
+
 def test_the_window_suites_cut_the_shares_they_name(maps_folder, monkeypatch) -> None:
     bench = load_script("bench_real_maps")
     monkeypatch.setattr(bench, "LOW_OVERLAP_MAPS", ("intel",))
