@@ -307,6 +307,16 @@ class ConfidenceParams:
     distinct_width : float
         Width of the distinctiveness logistic, in that fraction; also of the
         mirror factor.
+    distinct_by_space : bool
+        Whether the best different transform is about as good only when it
+        also shares about as much open space (free cells landing on free
+        cells): the distinctiveness share is then the smaller of its net
+        wall cells and its shared open space, each over the best's. Off by
+        default; the default method's look ranked by fit alone turns it on
+        (``TomographicParams.fit_ranked``), where the best is the exact fit
+        and a rival that lays as many walls on walls but little open space
+        on open space (a rectilinear building turned a quarter turn, a wall
+        met from the wrong side) explains the walls only.
     mirror_margin : float
         For the default method: the best transform must explain this much
         more than map 2's mirror image laid on the same overlap, as a
@@ -476,6 +486,7 @@ class ConfidenceParams:
     support_scale: float = 80.0
     distinct_margin: float = 0.25
     distinct_width: float = 0.05
+    distinct_by_space: bool = False
     mirror_margin: float = 0.25
     strength_scale: float = 10.0
     shared_space_scale: float = 1000.0
@@ -840,6 +851,18 @@ class TomographicParams:
         verdict, not the score, then decides. Right placements of such
         window pairs score 0.95-1 (``scripts/bench_real_maps.py
         low-overlap``, seed 41), wrong ones the score preferred -1.2-0.9.
+    fit_ranked : bool
+        When the verdict refuses the pool's first placement, rank the same
+        hypotheses again by fit alone, refine them and judge that pool's
+        first (:func:`merging.tomographic.search.ranked_by_fit`): with
+        ``VerifyParams.space_preference`` 0 and
+        ``ConfidenceParams.distinct_by_space``. The default ranking prefers
+        much shared open space, which maps of separate sessions need (ranked
+        by fit alone no E5 session pair is right) and which ranks a loose
+        large overlap above the exact small one of maps sharing 3-15 % of
+        their area (ranked by fit alone, 71-80 % of those windows are
+        placed right against 57-63 %). Only refusals are looked at again,
+        so whatever the first look accepts stays as it was.
     widest_per_block : float
         Widest field of the first refinement stage, in blocks of the coarse
         correlation grid: its hypotheses are off by up to half a block plus
@@ -880,6 +903,7 @@ class TomographicParams:
     correlation_refined: int = 2
     significance_refined: int = 2
     close_alternative: float = 0.95
+    fit_ranked: bool = True
     widest_per_block: float = 0.75
     keep_refined_margin: float = 0.02
     distinct_cells: float = 4.0

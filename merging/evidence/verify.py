@@ -380,7 +380,9 @@ def confidence(
       matching wall cannot vouch for a transform;
     * distinctiveness: a logistic of ``1 - net(runner-up) / net(best)``
       centred at ``distinct_margin``, so that two equally good explanations
-      (a symmetric building) give a low confidence instead of a coin toss;
+      (a symmetric building) give a low confidence instead of a coin toss
+      (with ``distinct_by_space``, the smaller of that share and the
+      runner-up's shared open space over the best's);
     * constraint (when ``strength`` is given): ``1 - exp(-strength /
       strength_scale)``, so that an overlap that lets one map slide or turn
       along a wall is not vouched for;
@@ -422,6 +424,9 @@ def confidence_factors(
     share = 0.0
     if runner_up is not None and best.net > 0:
         share = max(runner_up.net, 0.0) / best.net
+        if params.distinct_by_space:
+            # Both verified with their shared open space counted (``space=True``).
+            share = min(share, (runner_up.shared_space + 1.0) / (best.shared_space + 1.0))
     distinct = expit(((1.0 - share) - params.distinct_margin) / params.distinct_width)
     constrained = (
         1.0 if strength is None else 1.0 - np.exp(-max(strength, 0.0) / params.strength_scale)

@@ -11,8 +11,9 @@
 4. Refinement: the schedule of :class:`~merging.params.RefineStage` rows,
    each refining fewer candidates on finer fields (:func:`refined_pool`).
 
-:func:`search_pool` runs the four and returns the pool, the winner first;
-the verdict on it is :mod:`merging.tomographic.judging`'s.
+:func:`search_pool` runs the four and returns the pool, the winner first
+(:func:`search_hypotheses` steps 1-2, :func:`ranked_pool` steps 3-4); the
+verdict on it is :mod:`merging.tomographic.judging`'s.
 """
 
 from __future__ import annotations
@@ -143,26 +144,40 @@ def refined_pool(
     return pool
 
 
+def search_hypotheses(maps: SearchMaps, factor: int, timings: dict[str, float]) -> list[Peak]:
+    """Steps 1-2: the rotation hypotheses and, for each, the translation hypotheses.
+
+    They depend on the maps, the coarse grid and the rotation and translation
+    settings only, not on how the pool is ranked: a second ranking of the
+    same maps (:func:`ranked_pool`) starts from them again. Adds the seconds
+    of each step to ``timings``.
+    """
+    clock = time.perf_counter()
+    thetas, coarse1, coarse2 = rotation_hypotheses(maps, factor)
+    timings["rotation"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    candidates = translation_hypotheses(coarse1, coarse2, thetas, maps.params)
+    timings["translation"] = time.perf_counter() - clock
+    return candidates
+
+
+def ranked_pool(
+    maps: SearchMaps, candidates: list[Peak], factor: int, timings: dict[str, float]
+) -> list[Candidate]:
+    """Steps 3-4: ``candidates`` screened and refined, ranked by ``maps.params``; the winner
+    first. Adds the seconds of each step to ``timings``."""
+    clock = time.perf_counter()
+    screened = admission_order(maps, candidates)
+    timings["verify"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    pool = refined_pool(maps, screened, factor)
+    timings["refine"] = time.perf_counter() - clock
+    return pool
+
+
 def search_pool(maps: SearchMaps, factor: int, timings: dict[str, float]) -> list[Candidate]:
     """Steps 1-4: rotation and translation hypotheses, screened and refined; the winner first.
 
     Adds the seconds of each step to ``timings``.
     """
-    params = maps.params
-    clock = time.perf_counter()
-
-    def lap(step: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[step] = now - clock
-        clock = now
-
-    thetas, coarse1, coarse2 = rotation_hypotheses(maps, factor)
-    lap("rotation")
-    candidates = translation_hypotheses(coarse1, coarse2, thetas, params)
-    lap("translation")
-    screened = admission_order(maps, candidates)
-    lap("verify")
-    pool = refined_pool(maps, screened, factor)
-    lap("refine")
-    return pool
+    return ranked_pool(maps, search_hypotheses(maps, factor, timings), factor, timings)

@@ -55,8 +55,8 @@ Steps
 Steps 1-4 are :mod:`merging.tomographic.hypotheses`, steps 5-6
 :mod:`merging.tomographic.judging` with the second looks of
 :mod:`merging.tomographic.restarts`; what they share is
-:mod:`merging.tomographic.candidates`. This module runs them
-(:func:`tomographic_merge`) and refines a given transform without a search
+:mod:`merging.tomographic.candidates`. This module runs them and step 7
+(:func:`tomographic_merge`), and refines a given transform without a search
 (:func:`refine_from`).
 
 1. Rotation: angular spectra, the strongest correlation peaks and their
@@ -89,6 +89,12 @@ Steps 1-4 are :mod:`merging.tomographic.hypotheses`, steps 5-6
    twins of a symmetric building, so the placement is refused
    (:mod:`merging.evidence.mirror`). It costs about one more search, for accepted
    placements only.
+7. A second look, for a placement steps 5-6 refuse: the ranking's score
+   prefers much shared open space, which maps of separate sessions need
+   and which ranks a loose large overlap above the exact small one of maps
+   that share little; steps 3-6 run again on the same hypotheses ranked by
+   fit alone, the rivals held to the open space they share too
+   (:func:`ranked_by_fit`). What step 5-6 accept stays as it was.
 
 Every setting is in :class:`~merging.params.TomographicParams`, passed as
 ``merging.estimate_transform(..., params=...)``.
@@ -97,7 +103,9 @@ Every setting is in :class:`~merging.params.TomographicParams`, passed as
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -109,9 +117,9 @@ from merging.evidence.verify import prepare_map
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, TomographicParams
 from merging.result import Hypothesis, MergeResult
-from merging.tomographic.candidates import SearchMaps, rank, rms_between
-from merging.tomographic.correlate import coarse_factor
-from merging.tomographic.hypotheses import search_pool
+from merging.tomographic.candidates import Candidate, SearchMaps, rank, rms_between
+from merging.tomographic.correlate import Peak, coarse_factor
+from merging.tomographic.hypotheses import ranked_pool, search_hypotheses
 from merging.tomographic.judging import judged, verdict_on_pool
 from merging.transforms import cells_to_metres, translation_matrix
 
@@ -158,7 +166,8 @@ def _merge_observed(
     factor = coarse_factor(cells1.shape, cells2.shape, coarse_cells=params.translation.coarse_cells)
     timings["prepare"] = time.perf_counter() - clock
 
-    pool = search_pool(maps, factor, timings)
+    candidates = search_hypotheses(maps, factor, timings)
+    pool = ranked_pool(maps, candidates, factor, timings)
     if not pool:
         return MergeResult(
             matrix=np.eye(3),
@@ -168,10 +177,65 @@ def _merge_observed(
             timings=timings,
             reason="no placement to weigh: the maps are too small to hold a wall direction",
         )
-    hypotheses = tuple(
-        Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool
+    result = verdict_on_pool(maps, pool, _hypotheses(pool), timings)
+    if result.accepted or not params.fit_ranked:
+        return result
+    return ranked_by_fit(maps, result, partial(_judged_pool, candidates=candidates, factor=factor))
+
+
+def _hypotheses(pool: list[Candidate]) -> tuple[Hypothesis, ...]:
+    return tuple(Hypothesis(m, rank(v), v.agreement, v.conflict, int(v.overlap)) for v, m in pool)
+
+
+def _judged_pool(maps: SearchMaps, candidates: list[Peak], factor: int) -> MergeResult | None:
+    """Steps 3-6 on ``candidates``, ranked by ``maps.params``; None when none is left."""
+    timings: dict[str, float] = {}
+    pool = ranked_pool(maps, candidates, factor, timings)
+    return verdict_on_pool(maps, pool, _hypotheses(pool), timings) if pool else None
+
+
+def fit_ranking(params: TomographicParams) -> TomographicParams:
+    """``params`` ranking by fit alone: no preference for shared open space, and a rival
+    about as good only when it shares about as much of it
+    (``ConfidenceParams.distinct_by_space``)."""
+    return replace(
+        params,
+        verify=replace(params.verify, space_preference=0.0),
+        confidence=replace(params.confidence, distinct_by_space=True),
     )
-    return verdict_on_pool(maps, pool, hypotheses, timings)
+
+
+def ranked_by_fit(
+    maps: SearchMaps, refused: MergeResult, look: Callable[[SearchMaps], MergeResult | None]
+) -> MergeResult:
+    """Step 7: the verdict ``look`` gives with the pool ranked by fit alone.
+
+    ``refused`` is the verdict on the default ranking's pool. Its score
+    prefers much shared open space, which maps of separate sessions need:
+    they bend against each other, so a right placement meets the other
+    map's walls only within a few cells and fits no better than a wrong one
+    laying a corner on a corner, but lays open space on open space. Maps
+    sharing 3-15 % of their area need the opposite: a loose large overlap
+    shares more open space than the exact small one. ``look`` screens,
+    refines and judges the same hypotheses again (steps 3-6) with
+    ``maps`` ranking by fit alone (:func:`fit_ranking`), the rivals held to
+    the open space they share too; None when no placement is left. The
+    answer is that look's when it is accepted (``ranked_by_fit`` among its
+    evidence), else ``refused`` with the other look's confidence
+    (``fit_ranked_confidence``); its seconds are ``timings["fit_ranked"]``.
+    """
+    params = fit_ranking(maps.params)
+    if params == maps.params:
+        return refused
+    clock = time.perf_counter()
+    looked = look(SearchMaps(maps.first, maps.second, params, begun=maps))
+    timings = {**refused.timings, "fit_ranked": time.perf_counter() - clock}
+    if looked is not None and looked.accepted:
+        evidence = {**looked.evidence, "ranked_by_fit": 1.0}
+        return replace(looked, timings=timings, evidence=evidence)
+    confidence = 0.0 if looked is None else looked.confidence
+    evidence = {**refused.evidence, "fit_ranked_confidence": confidence}
+    return replace(refused, timings=timings, evidence=evidence)
 
 
 def refine_from(
@@ -278,19 +342,39 @@ def refine_from(
     if held_against_search:
         coarse_cells = params.translation.coarse_cells
         factor = coarse_factor(crop1.shape, crop2.shape, coarse_cells=coarse_cells)
-        # The search's placements, but those that are the refined one found again.
-        rivals = [
-            candidate
-            for candidate in search_pool(maps, factor, timings)
-            if rms_between(candidate[1], refined[1], second.points) > params.distinct_cells
-        ]
-        result = verdict_on_pool(maps, [refined, *rivals], hypotheses, timings)
+        candidates = search_hypotheses(maps, factor, timings)
+        held = partial(
+            _held_first, start=refined[1], candidates=candidates, factor=factor,
+            hypotheses=hypotheses, timings=timings,
+        )  # fmt: skip
+        result = held(maps)
+        if not result.accepted and params.fit_ranked:
+            result = ranked_by_fit(maps, result, held)
         # The verdict may move it (halfway between both ways round, or the compromise).
         best = into1 @ result.matrix @ out_of2
     else:
         result = judged(maps, refined[1], (None, None), hypotheses, timings, mirror_check=False)
     timings["total"] = time.perf_counter() - clock
     return _with_metres(replace(result, matrix=best), map1, map2)
+
+
+def _held_first(
+    maps: SearchMaps,
+    start: NDArray[np.float64],
+    candidates: list[Peak],
+    factor: int,
+    hypotheses: tuple[Hypothesis, ...],
+    timings: dict[str, float],
+) -> MergeResult:
+    """Steps 3-6 with the placement ``start`` first in the pool, ranked by ``maps.params``:
+    the search's placements, but those that are ``start`` found again, are its rivals."""
+    distinct, points = maps.params.distinct_cells, maps.second.points
+    rivals = [
+        candidate
+        for candidate in ranked_pool(maps, candidates, factor, timings)
+        if rms_between(candidate[1], start, points) > distinct
+    ]
+    return verdict_on_pool(maps, [(maps.verify(start), start), *rivals], hypotheses, timings)
 
 
 def _with_metres(result: MergeResult, map1: Any, map2: Any) -> MergeResult:

@@ -221,10 +221,12 @@ def test_a_small_overlap_with_a_near_rival_optimum_is_refused(maps_folder) -> No
     # a search whose significant shifts were ranked by the mass over the landing walls
     # placed it 3.6 cells off, turned 1.2 degrees, where the walls meet closely; turned
     # back about the overlap and refined, that placement finds the truth, which explains
-    # as much. (The search ranking them by the net mass places it elsewhere, refused.)
+    # as much. (The search ranking them by the net mass places it elsewhere, refused;
+    # ranked by fit alone, step 7, the truth is found and accepted.)
     whole = merging.load_map(maps_folder / "fr079.yaml").data
     pair = cut_window_pairs(whole, count=13, overlap_range=(0.03, 0.15), rng=1313)[12]
-    assert not merging.estimate_transform(pair.map1, pair.map2).accepted
+    first_look = replace(DEFAULT_PARAMS, fit_ranked=False)
+    assert not merging.estimate_transform(pair.map1, pair.map2, params=first_look).accepted
     placed = np.array([[0.110898516, 0.993831736, 579.285004], [-0.993831736, 0.110898516,
                        226.151372], [0.0, 0.0, 1.0]])  # fmt: skip
     assert 3.0 < transform_error(placed, pair.truth, pair.map2)[0] < 4.0
@@ -408,12 +410,20 @@ def test_the_truth_held_against_the_search_meets_the_rival_the_search_ranked_fir
     # 22): the search's winner lies 355 cells off and is refused. Refined from the truth
     # the overlap vouches for the placement (no search, no rival); judged in the place
     # of the search's winner, the placement the search ranked first is a rival that
-    # explains as much, turned half a turn: a perfect search would be refused here too.
+    # explains as much, turned half a turn: a perfect search would be refused there. In
+    # the pool ranked by fit alone (step 7) that rival shares too little open space to
+    # be as good: accepted, as the search itself now is.
     whole = merging.load_map(maps_folder / "intel.yaml").data
     pair = cut_window_pairs(whole, count=23, overlap_range=(0.03, 0.15), rng=2026)[22]
     alone = search.refine_from(pair.map1, pair.map2, pair.truth)
     assert alone.accepted
+    first_look = replace(DEFAULT_PARAMS, fit_ranked=False)
+    refused = search.refine_from(
+        pair.map1, pair.map2, pair.truth, held_against_search=True, params=first_look
+    )
+    assert not refused.accepted
+    assert refused.reason.startswith("ambiguous: another placement about as good lies 355 cells")
+    assert transform_error(refused.matrix, pair.truth, pair.map2)[0] < 1.0
     held = search.refine_from(pair.map1, pair.map2, pair.truth, held_against_search=True)
-    assert not held.accepted
-    assert held.reason.startswith("ambiguous: another placement about as good lies 355 cells")
+    assert held.accepted and held.evidence["ranked_by_fit"] == 1.0
     assert transform_error(held.matrix, pair.truth, pair.map2)[0] < 1.0
