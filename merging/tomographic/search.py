@@ -93,8 +93,9 @@ Steps 1-4 are :mod:`merging.tomographic.hypotheses`, steps 5-6
    prefers much shared open space, which maps of separate sessions need
    and which ranks a loose large overlap above the exact small one of maps
    that share little; steps 3-6 run again on the same hypotheses ranked by
-   fit alone, the rivals held to the open space they share too
-   (:func:`ranked_by_fit`). What step 5-6 accept stays as it was.
+   fit alone, the rivals held to the open space they share too, unless one
+   lays more walls on walls than the placement (:func:`ranked_by_fit`).
+   What step 5-6 accept stays as it was.
 
 Every setting is in :class:`~merging.params.TomographicParams`, passed as
 ``merging.estimate_transform(..., params=...)``.
@@ -223,6 +224,15 @@ def ranked_by_fit(
     answer is that look's when it is accepted (``ranked_by_fit`` among its
     evidence), else ``refused`` with the other look's confidence
     (``fit_ranked_confidence``); its seconds are ``timings["fit_ranked"]``.
+
+    Holding a rival to the open space it shares sets aside a rival that lays
+    about as many walls on walls but little floor on floor. One that lays
+    *more* walls on walls than the placement, by the close score or by the
+    robust way's tolerant one (a negative ``margin`` or ``tolerant_margin``),
+    is not set aside for sharing less space: the truth of two maps that
+    barely overlap is such a rival, and on generated floors, whose rooms
+    repeat, the second look accepted the room half a turn from it. Such a
+    look is refused (``fit_ranked_outexplained`` 1.0 in the evidence).
     """
     params = fit_ranking(maps.params)
     if params == maps.params:
@@ -230,12 +240,22 @@ def ranked_by_fit(
     clock = time.perf_counter()
     looked = look(SearchMaps(maps.first, maps.second, params, begun=maps))
     timings = {**refused.timings, "fit_ranked": time.perf_counter() - clock}
-    if looked is not None and looked.accepted:
+    outexplained = looked is not None and outexplained_by_rival(looked.evidence)
+    if looked is not None and looked.accepted and not outexplained:
         evidence = {**looked.evidence, "ranked_by_fit": 1.0}
         return replace(looked, timings=timings, evidence=evidence)
     confidence = 0.0 if looked is None else looked.confidence
     evidence = {**refused.evidence, "fit_ranked_confidence": confidence}
+    if outexplained:
+        evidence["fit_ranked_outexplained"] = 1.0
     return replace(refused, timings=timings, evidence=evidence)
+
+
+def outexplained_by_rival(evidence: dict[str, float]) -> bool:
+    """Whether a rival lays more walls on walls than the placement judged: a negative
+    ``margin`` (the close fit's runner-up) or ``tolerant_margin`` (the robust way's,
+    whose walls meet within a few cells) among the verdict's ``evidence``."""
+    return min(evidence.get("margin", 0.0), evidence.get("tolerant_margin", 0.0)) < 0.0
 
 
 def refine_from(

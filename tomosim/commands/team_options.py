@@ -17,11 +17,11 @@ import argparse
 from typing import Any
 
 from merging.api import DEFAULT_METHOD
+from merging.params import DEFAULT_PARAMS
 from merging.settings import parse_assignments
 from merging.validators import real_number, whole_number
 from tomosim.commands import UsageError
 from tomosim.team import CommsConfig, TeamConfig
-from tomosim.team.config import TEAM_MERGER
 from tomosim.team.overrides import with_settings
 
 DEFAULT_TEAM = TeamConfig()
@@ -84,7 +84,7 @@ def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
     except ValueError as error:
         raise UsageError(f"--team: {error}" if settings else str(error)) from None
     method = fields.get("method", DEFAULT_METHOD)
-    if method != DEFAULT_METHOD and team.merger != TEAM_MERGER:
+    if method != DEFAULT_METHOD and team.merger != DEFAULT_PARAMS:
         raise UsageError(
             f"--team merger.*: the {method!r} method takes no merger settings; they set "
             f"the {DEFAULT_METHOD!r} method's"

@@ -28,17 +28,6 @@ from tomosim.simulation import SimulationConfig
 from tomosim.team.comms import CommsConfig
 from tomosim.team.oracle import ORACLE, check_team_method
 
-TEAM_MERGER = replace(DEFAULT_PARAMS, fit_ranked=False)
-"""The default merger's settings for a team: without the second look (step 7 of
-:mod:`merging.tomographic.search`), which holds a rival to the open space it shares
-with the placement besides the walls it explains. A team asks every pair again each
-round as the maps grow, so a refusal costs a round, and a wrong link the merged map.
-On generated floors, whose rooms repeat and turn by quarter turns, 4 of the 26
-placements that look accepted in 48 study episodes were wrong (their rival, turned a
-half turn, was the truth, sharing little space), and tracking confirmed two; the first
-look alone confirmed none (docs/benchmarks/exploration.md). ``--team
-merger.fit_ranked=true`` turns it on."""
-
 
 @dataclass(frozen=True, slots=True)
 class TrackingParams:
@@ -191,8 +180,6 @@ class TeamConfig:
         searches and tracking (a kept track's threshold is
         ``tracker.keep_confidence`` still); by name on the command line as
         ``--team merger.confidence.accept=0.7`` (:mod:`merging.settings`).
-        :data:`TEAM_MERGER` by default: the merger's defaults without the
-        second look (step 7, ``fit_ranked``).
         Other methods take no settings and leave it unused (a sweep over
         methods applies it to the default method's episodes).
     merge_worker : bool
@@ -219,7 +206,7 @@ class TeamConfig:
     share_interval: int = 10
     tracking: bool = True
     tracker: TrackingParams = field(default_factory=TrackingParams)
-    merger: TomographicParams = TEAM_MERGER
+    merger: TomographicParams = DEFAULT_PARAMS
     merge_worker: bool = True
     linking: LinkingParams = field(default_factory=LinkingParams)
     comms: CommsConfig = field(default_factory=CommsConfig)

@@ -79,3 +79,35 @@ def test_a_refusal_both_looks_agree_on_keeps_the_first_look_s_reason() -> None:
     assert 0.0 <= result.evidence["fit_ranked_confidence"] < DEFAULT_PARAMS.confidence.accept
     assert "fit_ranked_confidence" not in first_look.evidence
     np.testing.assert_array_equal(result.matrix, first_look.matrix)
+
+
+def test_a_second_look_a_rival_outexplains_is_refused() -> None:
+    # The square room of the test above, prepared; the looks are stubbed.
+    from merging.evidence.verify import prepare_map
+    from merging.result import MergeResult
+    from merging.tomographic.candidates import SearchMaps
+
+    grid = np.full((60, 60), -1, dtype=np.int8)
+    grid[10:50, 10:50] = 0
+    grid[10, 10:50] = grid[49, 10:50] = grid[10:50, 10] = grid[10:50, 49] = 100
+    prepared = prepare_map(grid)
+    maps = SearchMaps(prepared, prepared, DEFAULT_PARAMS)
+    refused = MergeResult(np.eye(3), 0.2, False, "tomographic", reason="first look's")
+    placed = np.eye(3)
+    placed[0, 2] = 5.0
+    for margins, accepted in (
+        ({"margin": 0.2, "tolerant_margin": 0.2}, True),
+        ({"margin": 0.2}, True),  # the robust way was not asked: no tolerant rival
+        ({"margin": -0.01, "tolerant_margin": 0.3}, False),  # the close fit's runner-up
+        ({"margin": 0.16, "tolerant_margin": -0.01}, False),  # the robust way's
+    ):
+        looked = MergeResult(placed, 0.85, True, "tomographic", evidence=dict(margins))
+        result = search.ranked_by_fit(maps, refused, lambda _maps, looked=looked: looked)
+        assert result.accepted is accepted
+        if accepted:
+            assert result.evidence["ranked_by_fit"] == 1.0
+            np.testing.assert_array_equal(result.matrix, placed)
+        else:
+            assert result.reason == "first look's"
+            assert result.evidence["fit_ranked_outexplained"] == 1.0
+            assert result.evidence["fit_ranked_confidence"] == 0.85

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -451,32 +450,3 @@ def test_the_team_s_merger_settings_reach_its_searches_and_tracks(
     assert kept.confidence.accept == team.tracker.keep_confidence
     # Other methods take no settings: a sweep over methods leaves them unused there.
     assert TeamConfig(method="spectral", merger=team.merger).search_options() == {}
-
-
-def test_a_team_searches_without_the_second_look_unless_asked(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    from merging.grid import OccupancyGrid
-    from merging.params import DEFAULT_PARAMS
-    from merging.result import MergeResult
-    from merging.settings import with_settings
-    from tomosim.team import link_tracking as tracking_module
-    from tomosim.team import worker as worker_module
-
-    asked: list[object] = []
-
-    def search(*args: object, **kwargs: object) -> MergeResult:
-        asked.append(kwargs.get("params"))
-        return MergeResult(np.eye(3), 0.0, False, "tomographic", reason="no overlap")
-
-    monkeypatch.setattr(worker_module, "estimate_transform", search)
-    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.05)
-    asking = with_settings(INLINE, {"merger.fit_ranked": "true"})
-    for team, looks_twice in ((INLINE, False), (asking, True)):
-        tracking_module.TrackingEstimator(team, rng=0)(0, 1, grid, grid)
-        params = asked[-1]
-        assert isinstance(params, type(DEFAULT_PARAMS))
-        assert params.fit_ranked is looks_twice
-        # Everything else is the merger's default.
-        assert replace(params, fit_ranked=DEFAULT_PARAMS.fit_ranked) == DEFAULT_PARAMS
-    assert DEFAULT_PARAMS.fit_ranked  # estimate_transform itself takes the second look
