@@ -240,7 +240,7 @@ def ranked_by_fit(
     clock = time.perf_counter()
     looked = look(SearchMaps(maps.first, maps.second, params, begun=maps))
     timings = {**refused.timings, "fit_ranked": time.perf_counter() - clock}
-    outexplained = looked is not None and outexplained_by_rival(looked.evidence)
+    outexplained = looked is not None and looked.accepted and outexplained_by_rival(looked.evidence)
     if looked is not None and looked.accepted and not outexplained:
         evidence = {**looked.evidence, "ranked_by_fit": 1.0}
         return replace(looked, timings=timings, evidence=evidence)

@@ -111,3 +111,8 @@ def test_a_second_look_a_rival_outexplains_is_refused() -> None:
             assert result.reason == "first look's"
             assert result.evidence["fit_ranked_outexplained"] == 1.0
             assert result.evidence["fit_ranked_confidence"] == 0.85
+    # A look refused anyway is not said to be outexplained.
+    looked = MergeResult(placed, 0.3, False, "tomographic", evidence={"margin": -0.01})
+    result = search.ranked_by_fit(maps, refused, lambda _maps: looked)
+    assert not result.accepted and "fit_ranked_outexplained" not in result.evidence
+    assert result.evidence["fit_ranked_confidence"] == 0.3
