@@ -26,8 +26,13 @@ Usage::
 
 The report also holds each refused pair against the chains of two accepted
 answers around it: a refused answer that agrees with them was right but not
-vouched for, one hundreds of cells from them wrong. ``--merger NAME=VALUE`` (repeatable)
-changes a setting of the default method by its dotted name
+vouched for, one hundreds of cells from them wrong. And it links each floor's
+sessions from every method's pairwise answers at once (:func:`merging.link_maps`,
+what :func:`merging.merge_all` does), which places the pairs a method refused
+through the others: how many sessions end in one group, and how far each
+pairwise answer, accepted or refused, lies from the transform the linking gives.
+
+``--merger NAME=VALUE`` (repeatable) changes a setting of the default method by its dotted name
 (:mod:`merging.settings`); the report names the settings changed.
 """
 
@@ -49,6 +54,7 @@ import merging
 from merging.api import DEFAULT_METHOD
 from merging.evaluation.metrics import transform_error
 from merging.params import TomographicParams
+from merging.result import MergeResult
 from tomosim.commands.merger_options import add_merger_argument, changed, merger_params
 from tomosim.commands.script_args import positive_float, run_script, shared_maps
 
@@ -72,6 +78,8 @@ class Answer:
     seconds: float
     matrix: NDArray[np.float64]
     reason: str
+    result: MergeResult | None = None
+    """The method's full answer, for the linking (not written to ``pairs.csv``)."""
 
 
 def sessions(folder: Path, floor: str) -> list[str]:
@@ -104,7 +112,7 @@ def merge_floor(
             seconds = time.perf_counter() - start
             answer = Answer(floor, first, second, method, bool(result.accepted),
                             float(result.confidence), seconds, result.matrix,
-                            result.reason)  # fmt: skip
+                            result.reason, result)  # fmt: skip
             answers.append(answer)
             writer.writerow({
                 "floor": floor, "first": first, "second": second, "method": method,
@@ -168,6 +176,57 @@ def refused_against_cycles(
     return checked
 
 
+def linked_against_answers(
+    answers: list[Answer], names: list[str], grids: dict[str, NDArray]
+) -> tuple[tuple[tuple[int, ...], ...], list[tuple[bool, float | None]]]:
+    """One method's answers on one floor linked at once (:func:`merging.link_maps`).
+
+    Returns the linking's groups (indices into ``names``) and, per answer, whether it
+    was accepted and how far (cells RMS over map 2's walls) it lies from the transform
+    the linking gives its pair; None when the linking leaves the two sessions apart.
+    """
+    index = {name: k for k, name in enumerate(names)}
+    pairs = {}
+    for answer in answers:
+        assert answer.result is not None
+        pairs[(index[answer.first], index[answer.second])] = answer.result
+    linking = merging.link_maps([grids[name] for name in names], pairs)
+    distances: list[tuple[bool, float | None]] = []
+    for answer in answers:
+        relative = linking.relative(index[answer.first], index[answer.second])
+        distance = None
+        if relative is not None:
+            distance = float(transform_error(relative, answer.matrix, grids[answer.second])[0])
+        distances.append((answer.accepted, distance))
+    return linking.groups, distances
+
+
+def linking_table(linked: dict[tuple[str, str], tuple], look: float) -> list[str]:
+    """The report's section on the linking (:func:`linked_against_answers`)."""
+    lines = [
+        "",
+        "Each floor's sessions linked from the method's answers at once "
+        "(`merging.link_maps`, as `merging.merge_all` does): the largest group, the pairs "
+        f"the linking places, and the answers within {look:.0f} cells of the transform "
+        "it gives their pair.",
+        "",
+        "| floor | method | sessions | largest group | pairs placed | "
+        f"accepted within {look:.0f} | refused within {look:.0f} |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for (floor, method), (groups, distances) in linked.items():
+        placed = [(accepted, d) for accepted, d in distances if d is not None]
+        accepted = [d for ok, d in placed if ok]
+        refused = [d for ok, d in placed if not ok]
+        lines.append(
+            f"| {floor} | {method} | {sum(len(g) for g in groups)} | "
+            f"{max(len(g) for g in groups)} | {len(placed)} of {len(distances)} | "
+            f"{sum(d <= look for d in accepted)} of {len(accepted)} | "
+            f"{sum(d <= look for d in refused)} of {len(refused)} |"
+        )
+    return lines
+
+
 def overlay(first: NDArray, second: NDArray, matrix: NDArray, path: Path) -> None:
     """Save map 1's walls (black) and map 2's placed by ``matrix`` (red) on map 1's open space."""
     from PIL import Image
@@ -193,6 +252,7 @@ def report(
     closed: dict[tuple[str, str], list],
     refused: dict[tuple[str, str], list],
     look: float,
+    linked: dict[tuple[str, str], tuple] | None = None,
 ) -> list[str]:
     """The Markdown report: per floor and method, acceptance, how the cycles close and
     how the refused answers lie against them."""
@@ -234,7 +294,7 @@ def report(
             f"| {floor} | {method} | {len(checked)} | {near} | {len(errors) - near - far} | "
             f"{far} | {len(checked) - len(errors)} |"
         )
-    return lines
+    return lines + (linking_table(linked, look) if linked else [])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -261,6 +321,7 @@ def main(argv: list[str] | None = None) -> int:
     answers: list[Answer] = []
     closed: dict[tuple[str, str], list] = {}
     refused: dict[tuple[str, str], list] = {}
+    linked: dict[tuple[str, str], tuple] = {}
     with csv_path.open("w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=["floor", "first", "second", "method",
                                                     "accepted", "confidence", "seconds",
@@ -279,6 +340,7 @@ def main(argv: list[str] | None = None) -> int:
                 mine = [x for x in found if x.method == method]
                 closed[(floor, method)] = cycles(mine, walls)
                 refused[(floor, method)] = refused_against_cycles(mine, walls)
+                linked[(floor, method)] = linked_against_answers(mine, names, walls)
                 if not args.overlays:
                     continue
                 named = {p for t in closed[(floor, method)] if t[3] > args.look_cells
@@ -291,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
     listed = ", ".join(f"`{name}={value}`" for name, value in settings.items())
     named = [f"Default merger's settings changed (`--merger`): {listed}.", ""] if settings else []
     lines = ["# Cycles of three on floors without a known truth", "", *named,
-             *report(answers, closed, refused, args.look_cells)]  # fmt: skip
+             *report(answers, closed, refused, args.look_cells, linked)]  # fmt: skip
     md_path = args.out / "cycles.md"
     md_path.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -67,6 +67,38 @@ def test_refused_answers_are_held_against_chains_of_accepted_ones() -> None:
     assert "| F | m | 3 | 1 | 0 | 1 | 1 |" in lines
 
 
+def test_the_linking_places_a_refused_pair_through_the_accepted_ones() -> None:
+    from merging.result import MergeResult
+
+    bench = load_script("bench_cycles")
+    grids = sessions("abc")
+
+    def answer_of(first: str, second: str, matrix, accepted: bool, answered=None):
+        """An answer whose full result holds ``matrix`` (``answered``: its own matrix)."""
+        full = MergeResult(matrix=matrix, confidence=0.5, accepted=accepted, method="m")
+        shown = matrix if answered is None else answered
+        return bench.Answer("F", first, second, "m", accepted, 0.5, 0.01, shown, "", full)
+
+    right = B_IN_A @ C_IN_B
+    off = rigid_matrix(4.0, 0.0, 0.0) @ right  # refused, 4 cells from the chain through b
+    answers = [
+        answer_of("a", "b", B_IN_A, True),
+        answer_of("b", "c", C_IN_B, True),
+        answer_of("a", "c", right, False, answered=off),
+    ]
+    groups, distances = bench.linked_against_answers(answers, ["a", "b", "c"], grids)
+    assert groups == ((0, 1, 2),)
+    assert [accepted for accepted, _ in distances] == [True, True, False]
+    assert distances[0][1] == pytest.approx(0.0, abs=1e-6)
+    assert distances[2][1] == pytest.approx(4.0, abs=1e-6)
+    lines = bench.linking_table({("F", "m"): (groups, distances)}, 30.0)
+    assert "| F | m | 3 | 3 | 3 of 3 | 2 of 2 | 1 of 1 |" in lines
+    # A refused pair with no accepted path between its sessions stays apart.
+    alone = [answers[0], answer_of("a", "c", right, False)]
+    groups, distances = bench.linked_against_answers(alone, ["a", "b", "c"], grids)
+    assert sorted(groups) == [(0, 1), (2,)] and distances[1] == (False, None)
+
+
 def test_unknown_methods_are_named(capsys, tmp_path, maps_folder) -> None:
     bench = load_script("bench_cycles")
     status = bench.main(["--methods", "nonesuch", "--floors", "HIH", "--out", str(tmp_path)])
