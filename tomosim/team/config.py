@@ -162,6 +162,13 @@ class TeamConfig:
         links; in the exploration study, an error of 0.4 degrees and 0.1 m
         (the merger's typical one) moves single episodes' time to 90 % by
         as much as the merger does (docs/benchmarks/exploration.md).
+    oracle_min_shared_m2 : float
+        With ``method="oracle"``: square metres of free space two robots' maps
+        must share (under the true transform) before the oracle accepts their
+        pair (0: at once, whatever the maps hold). A merger working from the
+        grids links a pair only once its maps overlap; an oracle held to that
+        tells what the wait costs a team apart from the merger
+        (:mod:`tomosim.team.oracle`).
     share_interval : int
         Steps between updates of a linked robot's view of its teammates' maps
         (:mod:`tomosim.team.sharing`): 10, 1 s at the default step, in which a
@@ -203,6 +210,7 @@ class TeamConfig:
     confirm_translation_m: float = 0.5
     oracle_error_deg: float = 0.0
     oracle_error_m: float = 0.0
+    oracle_min_shared_m2: float = 0.0
     share_interval: int = 10
     tracking: bool = True
     tracker: TrackingParams = field(default_factory=TrackingParams)
@@ -223,10 +231,16 @@ class TeamConfig:
         real_number(self.confirm_translation_m, "confirm_translation_m", low=0.0, unit="metres")
         real_number(self.oracle_error_deg, "oracle_error_deg", low=0.0, unit="degrees")
         real_number(self.oracle_error_m, "oracle_error_m", low=0.0, unit="metres")
+        real_number(self.oracle_min_shared_m2, "oracle_min_shared_m2", low=0.0, unit="m²")
         if (self.oracle_error_deg or self.oracle_error_m) and self.method != ORACLE:
             raise ValueError(
                 "oracle_error_deg and oracle_error_m perturb the oracle's transforms; they "
                 f"need method={ORACLE!r}, got method={self.method!r}"
+            )
+        if self.oracle_min_shared_m2 and self.method != ORACLE:
+            raise ValueError(
+                "oracle_min_shared_m2 holds the oracle back until the maps overlap; it "
+                f"needs method={ORACLE!r}, got method={self.method!r}"
             )
         for name, kind in (
             ("tracker", TrackingParams),

@@ -14,6 +14,13 @@ confirmation rule, same linking and sharing), so that a comparison with the
 tomographic merger isolates the estimates. It is built by the session, the
 one place that holds the true start poses; :mod:`merging` never sees them.
 
+With ``min_shared_m2`` the oracle needs overlap as a merger working from the
+grids does: it answers a pair only once the two maps share that much free
+space under the true transform
+(:func:`~tomosim.team.quality.shared_free_area`), and refuses it before. Its
+time to explore, beside the plain oracle's, is what linking only once the maps
+overlap costs a team, whatever merger does the linking.
+
 The transform taking robot ``j``'s map frame to robot ``i``'s is
 ``inv(P_i) @ P_j`` (:func:`~tomosim.team.quality.true_relative`), in metres;
 in cells, ``inv(C_i) @ inv(P_i) @ P_j @ C_j`` with ``C_k`` the matrix taking
@@ -21,6 +28,8 @@ grid ``k``'s cells to its frame (:meth:`OccupancyGrid.cell_to_world_matrix`).
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,7 +40,7 @@ from merging.result import MergeResult
 from merging.validators import one_of
 from tomosim.frames import pose_matrix
 from tomosim.team.merger import PairEstimator
-from tomosim.team.quality import true_relative
+from tomosim.team.quality import shared_free_area, true_relative
 
 ORACLE = "oracle"
 """The method name of the known-poses bound."""
@@ -48,7 +57,11 @@ def check_team_method(method: object) -> str:
 
 
 def oracle_estimator(
-    starts: ArrayLike, *, error_deg: float = 0.0, error_m: float = 0.0
+    starts: ArrayLike,
+    *,
+    error_deg: float = 0.0,
+    error_m: float = 0.0,
+    min_shared_m2: float = 0.0,
 ) -> PairEstimator:
     """A pair estimator returning the true transforms between the robots' map frames.
 
@@ -60,11 +73,19 @@ def oracle_estimator(
         A fixed error per pair (:func:`pair_error`): the transform turned by
         ``error_deg`` degrees and robot ``j``'s start moved by ``error_m``
         metres (0, 0: the truth).
+    min_shared_m2 : float
+        Square metres of free space the two maps must share under the true
+        transform (:func:`~tomosim.team.quality.shared_free_area`) before the
+        oracle accepts the pair (0: always, whatever the maps hold).
     """
     poses = np.array(starts, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3 or not np.all(np.isfinite(poses)):
         raise ValueError(f"starts must be a finite (N, 3) array of poses, got shape {poses.shape}")
-    for value, name in ((error_deg, "error_deg"), (error_m, "error_m")):
+    for value, name in (
+        (error_deg, "error_deg"),
+        (error_m, "error_m"),
+        (min_shared_m2, "min_shared_m2"),
+    ):
         if not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
@@ -75,14 +96,26 @@ def oracle_estimator(
         if error_deg or error_m:
             metres = metres @ pair_error(i, j, error_deg, error_m)
         into_i = np.linalg.inv(grid_i.cell_to_world_matrix())
-        cells = into_i @ metres @ grid_j.cell_to_world_matrix()
-        return MergeResult(
-            matrix=np.asarray(cells, dtype=np.float64),
+        cells = np.asarray(into_i @ metres @ grid_j.cell_to_world_matrix(), dtype=np.float64)
+        answer = MergeResult(
+            matrix=cells,
             confidence=1.0,
             accepted=True,
             method=ORACLE,
             matrix_metres=np.asarray(metres, dtype=np.float64),
         )
+        if min_shared_m2 <= 0:
+            return answer
+        true_cells = into_i @ true_relative(poses[i], poses[j]) @ grid_j.cell_to_world_matrix()
+        shared = shared_free_area(grid_i, grid_j, true_cells)
+        evidence = {"shared_free_m2": shared}
+        if shared >= min_shared_m2:
+            return replace(answer, evidence=evidence)
+        reason = (
+            f"the maps share {shared:.1f} m² of free space, less than the "
+            f"{min_shared_m2:g} m² the oracle waits for"
+        )
+        return replace(answer, confidence=0.0, accepted=False, reason=reason, evidence=evidence)
 
     return estimate
 

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from merging.evaluation.metrics import acceptance_index, matching_index
-from merging.grid import OccupancyGrid
+from merging.grid import OccupancyGrid, free_mask
 from merging.transforms import matrix_to_pose
 from tomosim.frames import frame_errors, pose_matrix
 from tomosim.team.merger import PairOutcome, TeamMerge, pair_name, robot_name
@@ -59,6 +59,22 @@ def true_relative(start_i: ArrayLike, start_j: ArrayLike) -> NDArray[np.float64]
         True start poses ``(x, y, theta)`` in the world (metres, radians).
     """
     return np.asarray(np.linalg.inv(pose_matrix(start_i)) @ pose_matrix(start_j), dtype=np.float64)
+
+
+def shared_free_area(
+    grid_i: OccupancyGrid, grid_j: OccupancyGrid, cells: NDArray[np.float64]
+) -> float:
+    """Square metres of free space both grids know: grid ``j``'s free cells whose
+    centres ``cells`` (grid ``j``'s cells to grid ``i``'s) carries onto free cells of
+    grid ``i``, each counting grid ``j``'s cell area."""
+    rows, cols = np.nonzero(free_mask(grid_j.data))
+    x = cells[0, 0] * cols + cells[0, 1] * rows + cells[0, 2]
+    y = cells[1, 0] * cols + cells[1, 1] * rows + cells[1, 2]
+    col, row = np.rint(x).astype(np.intp), np.rint(y).astype(np.intp)
+    height, width = grid_i.shape
+    inside = (row >= 0) & (row < height) & (col >= 0) & (col < width)
+    landed = free_mask(grid_i.data[row[inside], col[inside]])
+    return float(np.count_nonzero(landed)) * grid_j.resolution**2
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,6 +109,10 @@ class PairQuality:
         Why the merger did not accept the estimate (empty when accepted).
     dropped : bool
         Confirmed, but left out of the links because it contradicts the others.
+    shared_free_m2 : float
+        Square metres of free space both grids know, laid by the true transform
+        (:func:`shared_free_area`): how much the two maps overlap, whatever the
+        estimate (``nan`` when not measured).
     """
 
     first: int
@@ -108,6 +128,7 @@ class PairQuality:
     translation_error_m: float
     reason: str = ""
     dropped: bool = False
+    shared_free_m2: float = math.nan
 
     @property
     def name(self) -> str:
@@ -128,6 +149,7 @@ class PairQuality:
             "estimate": self.estimate,
             "truth": self.truth,
             "reason": self.reason,
+            "shared_free_m2": self.shared_free_m2,
         }
 
 
@@ -157,6 +179,9 @@ def pair_quality(
     scored = result.accepted and bool(np.all(np.isfinite(result.matrix)))
     overlap = matching_index(grids[0].data, grids[1].data, result.matrix) if scored else np.nan
     pose = matrix_to_pose(estimate) if np.all(np.isfinite(estimate)) else (NO_ESTIMATE,) * 3
+    true_cells = (
+        np.linalg.inv(grids[0].cell_to_world_matrix()) @ truth @ grids[1].cell_to_world_matrix()
+    )
     return PairQuality(
         first=outcome.first,
         second=outcome.second,
@@ -171,6 +196,7 @@ def pair_quality(
         translation_error_m=translation,
         reason=result.reason,
         dropped=outcome.dropped,
+        shared_free_m2=shared_free_area(grids[0], grids[1], true_cells),
     )
 
 

@@ -186,6 +186,7 @@ class TeamSession:
                 self.simulation.start_poses,
                 error_deg=self.config.oracle_error_deg,
                 error_m=self.config.oracle_error_m,
+                min_shared_m2=self.config.oracle_min_shared_m2,
             )
         if self.config.comms.unlimited:
             return base

@@ -96,6 +96,57 @@ def test_an_oracle_with_an_error_is_off_by_exactly_that_error(world: World) -> N
     assert len(directions) == len(merge.pairs)
 
 
+def test_the_shared_free_area_counts_free_space_both_grids_know() -> None:
+    from tomosim.team.quality import shared_free_area
+
+    first = np.full((10, 10), -1, dtype=np.int8)
+    first[2:6, 2:8] = 0  # 24 free cells
+    first[4, 4] = 100  # one of them a wall
+    second = np.full((10, 10), -1, dtype=np.int8)
+    second[0:4, 0:10] = 0
+    a = OccupancyGrid(first, resolution=0.5)
+    b = OccupancyGrid(second, resolution=0.5)
+    # Grid b's rows 0-3 laid on a's rows 2-5: a's free block less its wall cell.
+    shift = pose_matrix((0.0, 2.0, 0.0))
+    assert shared_free_area(a, b, shift) == pytest.approx(23 * 0.25)
+    # Laid away from a's free block, they share nothing.
+    assert shared_free_area(a, b, pose_matrix((0.0, 7.0, 0.0))) == 0.0
+
+
+def test_an_oracle_waiting_for_overlap_refuses_pairs_that_share_too_little(
+    world: World,
+) -> None:
+    starts = np.array([[2.0, 2.0, 0.0], [9.0, 6.5, 1.0]])
+    grid = np.full((40, 40), -1, dtype=np.int8)
+    grid[:, :] = 0
+    lone = OccupancyGrid(np.full((40, 40), -1, dtype=np.int8), resolution=0.1)
+    seen = OccupancyGrid(grid, resolution=0.1)
+    strict = oracle_estimator(starts, min_shared_m2=1.0)
+    refused = strict(0, 1, seen, lone)
+    assert not refused.accepted and refused.confidence == 0.0
+    assert "0.0 m²" in refused.reason and "1 m²" in refused.reason
+    # Its answer is still the truth, which a later round accepts once the maps overlap.
+    plain = oracle_estimator(starts)(0, 1, seen, lone)
+    np.testing.assert_allclose(refused.matrix, plain.matrix, atol=EXACT)
+    # In a session, the pairs whose maps share enough are accepted and the others not;
+    # a bound no pair reaches leaves every pair unlinked.
+    config = TeamConfig(method=ORACLE, merge_interval=MERGE_INTERVAL, oracle_min_shared_m2=5.0)
+    session = run_session(world, config, 2 * MERGE_INTERVAL)
+    merge = session.last_merge
+    assert merge is not None
+    shared = [p.result.evidence["shared_free_m2"] for p in merge.pairs]
+    accepted = [p.accepted for p in merge.pairs]
+    assert accepted == [value >= 5.0 for value in shared] and any(accepted) and not all(accepted)
+    never = TeamConfig(method=ORACLE, merge_interval=MERGE_INTERVAL, oracle_min_shared_m2=1e6)
+    blocked_session = run_session(world, never, 2 * MERGE_INTERVAL)
+    assert blocked_session.last_merge is not None
+    assert not any(p.accepted for p in blocked_session.last_merge.pairs)
+    with pytest.raises(ValueError, match="oracle_min_shared_m2"):
+        TeamConfig(oracle_min_shared_m2=5.0)
+    with pytest.raises(ValueError, match="oracle_min_shared_m2"):
+        TeamConfig(method=ORACLE, oracle_min_shared_m2=-1.0)
+
+
 def test_the_oracles_error_is_validated() -> None:
     with pytest.raises(ValueError, match="oracle_error_m"):
         TeamConfig(method=ORACLE, oracle_error_m=-0.1)
