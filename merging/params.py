@@ -337,7 +337,10 @@ class ConfidenceParams:
         caps the confidence of the way it tests rather than multiplying it
         (:mod:`merging.evidence.verdict`), so a placement is refused in the
         mirror's name only when the factor itself is below ``accept``: the
-        mirror image explaining more than about 73 % of the evidence.
+        mirror image explaining more than about 73 % of the evidence. Wrong
+        placements lie below the round hall's range too: ``aces3#19`` of
+        low-overlap seed 31415, 924 cells off, has a mirror image explaining
+        78 %, and is accepted at a margin of 0.15.
     strength_scale : float
         Constraint strength (matching cells per cell² of motion along the
         weakest direction, :func:`merging.evidence.refine.constraint_strength`) at which
