@@ -20,6 +20,7 @@ kernel                                           oracle
                                                  :func:`tomosim.evaluation.known_in_world`
 :func:`~tomosim.kernels.crop.crop_max_pool`      window slicing and a reshaped maximum in
                                                  numpy (``tests/tomosim/kernels/test_kernels.py``)
+:func:`~tomosim.kernels.overlap.shared_free`     :func:`tomosim.team.quality.shared_free_numpy`
 ===============================================  ===================================================
 
 The modules here import neither pymunk, PettingZoo nor rerun, and nothing of

@@ -35,6 +35,7 @@ from merging.evaluation.metrics import acceptance_index, matching_index
 from merging.grid import OccupancyGrid, free_mask
 from merging.transforms import matrix_to_pose
 from tomosim.frames import frame_errors, pose_matrix
+from tomosim.kernels.overlap import shared_free
 from tomosim.team.merger import PairOutcome, TeamMerge, pair_name, robot_name
 
 TRUTH_WINDOW_MARGIN = 2
@@ -66,15 +67,29 @@ def shared_free_area(
 ) -> float:
     """Square metres of free space both grids know: grid ``j``'s free cells whose
     centres ``cells`` (grid ``j``'s cells to grid ``i``'s) carries onto free cells of
-    grid ``i``, each counting grid ``j``'s cell area."""
-    rows, cols = np.nonzero(free_mask(grid_j.data))
+    grid ``i``, each counting grid ``j``'s cell area.
+
+    Counted by the compiled :func:`tomosim.kernels.overlap.shared_free`;
+    :func:`shared_free_numpy` is its specification.
+    """
+    matrix = np.ascontiguousarray(cells, dtype=np.float64)
+    count = shared_free(
+        np.ascontiguousarray(grid_i.data), np.ascontiguousarray(grid_j.data), matrix
+    )
+    return float(count) * grid_j.resolution**2
+
+
+def shared_free_numpy(
+    first: NDArray[np.int8], second: NDArray[np.int8], cells: NDArray[np.float64]
+) -> int:
+    """What :func:`tomosim.kernels.overlap.shared_free` counts, in array operations."""
+    rows, cols = np.nonzero(free_mask(second))
     x = cells[0, 0] * cols + cells[0, 1] * rows + cells[0, 2]
     y = cells[1, 0] * cols + cells[1, 1] * rows + cells[1, 2]
     col, row = np.rint(x).astype(np.intp), np.rint(y).astype(np.intp)
-    height, width = grid_i.shape
+    height, width = first.shape
     inside = (row >= 0) & (row < height) & (col >= 0) & (col < width)
-    landed = free_mask(grid_i.data[row[inside], col[inside]])
-    return float(np.count_nonzero(landed)) * grid_j.resolution**2
+    return int(np.count_nonzero(free_mask(first[row[inside], col[inside]])))
 
 
 @dataclass(frozen=True, slots=True)

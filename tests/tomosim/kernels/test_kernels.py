@@ -340,3 +340,22 @@ def test_turn_remainder_is_the_modulo_bit_for_bit() -> None:
     edges += [float(np.nextafter(e, d)) for e in (TWO_PI, -TWO_PI, 0.0) for d in (-9, 9)]
     for angle in [*edges, *rng.uniform(-20, 20, 2000), *rng.uniform(-1e-9, 1e-9, 100)]:
         assert np.float64(turn_remainder(angle)).tobytes() == np.float64(angle % TWO_PI).tobytes()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_shared_free_kernel_matches_the_numpy_count(seed: int) -> None:
+    from tomosim.frames import pose_matrix
+    from tomosim.kernels.overlap import shared_free
+    from tomosim.team.quality import shared_free_numpy
+
+    generator = np.random.default_rng(seed)
+    codes = np.array([UNKNOWN, 0, 10, 19, 20, 65, 100], dtype=np.int8)
+    first = generator.choice(codes, size=(70, 90))
+    second = generator.choice(codes, size=(60, 50))
+    for _ in range(20):
+        pose = (generator.uniform(-30, 60), generator.uniform(-30, 50), generator.uniform(-4, 4))
+        matrix = pose_matrix(pose)
+        assert shared_free(first, second, matrix) == shared_free_numpy(first, second, matrix)
+    # Centres landing exactly half way between cells round to the even one, as np.rint.
+    half = pose_matrix((10.5, 3.5, 0.0))
+    assert shared_free(first, second, half) == shared_free_numpy(first, second, half)
