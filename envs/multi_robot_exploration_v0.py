@@ -88,9 +88,10 @@ robot 0's (``estimate``,
 ``translation_error_m`` (``inf`` without an estimate), ``matching_index``
 (eq. 31 of the paper; None for estimates not accepted), ``confidence``,
 ``accepted``, ``confirmed``, ``used``,
-``dropped`` (confirmed but contradicting the other links) and the merger's
-``reason``. Reports and recordings of tomosim call the same robots ``r0``,
-``r1``, ... (:func:`tomosim.team.robot_name`).
+``dropped`` (confirmed but contradicting the other links), the merger's
+``reason`` and ``shared_free_m2`` (the free space both maps know, laid by the
+true transform: how much they overlap). Reports and recordings of tomosim call
+the same robots ``r0``, ``r1``, ... (:func:`tomosim.team.robot_name`).
 
 At the last step of an episode each agent's info also holds ``episode``: ``r``
 (the agent's return), ``l`` (steps), its ``coverage``, ``team_coverage``,

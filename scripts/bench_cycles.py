@@ -188,7 +188,11 @@ def linked_against_answers(
     index = {name: k for k, name in enumerate(names)}
     pairs = {}
     for answer in answers:
-        assert answer.result is not None
+        if answer.result is None:
+            raise ValueError(
+                f"the answer for {answer.first} | {answer.second} holds no result to link; "
+                "link the answers merge_floor returns"
+            )
         pairs[(index[answer.first], index[answer.second])] = answer.result
     linking = merging.link_maps([grids[name] for name in names], pairs)
     distances: list[tuple[bool, float | None]] = []
@@ -218,13 +222,20 @@ def linking_table(linked: dict[tuple[str, str], tuple], look: float) -> list[str
         placed = [(accepted, d) for accepted, d in distances if d is not None]
         accepted = [d for ok, d in placed if ok]
         refused = [d for ok, d in placed if not ok]
+        largest = max((len(g) for g in groups), default=0)
         lines.append(
-            f"| {floor} | {method} | {sum(len(g) for g in groups)} | "
-            f"{max(len(g) for g in groups)} | {len(placed)} of {len(distances)} | "
-            f"{sum(d <= look for d in accepted)} of {len(accepted)} | "
-            f"{sum(d <= look for d in refused)} of {len(refused)} |"
+            f"| {floor} | {method} | {sum(len(g) for g in groups)} | {largest} | "
+            f"{len(placed)} of {len(distances)} | {_within(accepted, look)} | "
+            f"{_within(refused, look)} |"
         )
     return lines
+
+
+def _within(distances: list[float], look: float) -> str:
+    """``"k of n"``: how many of ``distances`` are at most ``look``; ``-`` for none."""
+    if not distances:
+        return "-"
+    return f"{sum(d <= look for d in distances)} of {len(distances)}"
 
 
 def overlay(first: NDArray, second: NDArray, matrix: NDArray, path: Path) -> None:
@@ -254,8 +265,9 @@ def report(
     look: float,
     linked: dict[tuple[str, str], tuple] | None = None,
 ) -> list[str]:
-    """The Markdown report: per floor and method, acceptance, how the cycles close and
-    how the refused answers lie against them."""
+    """The Markdown report: per floor and method, acceptance, how the cycles close, how
+    the refused answers lie against them and, given ``linked``
+    (:func:`linked_against_answers` per floor and method), the linking's section."""
     lines = [
         "| floor | method | pairs | accepted | cycles | median error (cells) | max | "
         f"above {look:.0f} | above {WRONG_CELLS:.0f} (a wrong answer) | median s |",

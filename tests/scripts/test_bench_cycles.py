@@ -93,10 +93,15 @@ def test_the_linking_places_a_refused_pair_through_the_accepted_ones() -> None:
     assert distances[2][1] == pytest.approx(4.0, abs=1e-6)
     lines = bench.linking_table({("F", "m"): (groups, distances)}, 30.0)
     assert "| F | m | 3 | 3 | 3 of 3 | 2 of 2 | 1 of 1 |" in lines
+    nothing = bench.linking_table({("F", "m"): (((0,), (1,), (2,)), [(False, None)])}, 30.0)
+    assert "| F | m | 3 | 1 | 0 of 1 | - | - |" in nothing
     # A refused pair with no accepted path between its sessions stays apart.
     alone = [answers[0], answer_of("a", "c", right, False)]
     groups, distances = bench.linked_against_answers(alone, ["a", "b", "c"], grids)
     assert sorted(groups) == [(0, 1), (2,)] and distances[1] == (False, None)
+    unlinkable = [bench.Answer("F", "a", "b", "m", True, 0.5, 0.01, B_IN_A, "")]
+    with pytest.raises(ValueError, match=r"a \| b holds no result"):
+        bench.linked_against_answers(unlinkable, ["a", "b"], grids)
 
 
 def test_unknown_methods_are_named(capsys, tmp_path, maps_folder) -> None:

@@ -21,7 +21,8 @@ def shared_free(
 ) -> int:
     """Free cells of ``second`` whose centres ``matrix`` (``second``'s cells ``(x, y)``
     to ``first``'s) carries onto free cells of ``first`` (nearest cell, rounding half
-    to even; free: known and at most :data:`merging.grid.FREE_THRESHOLD`)."""
+    to even; free: known and at most :data:`merging.grid.FREE_THRESHOLD`). ``matrix``
+    must be a finite 3x3 array: numba does not check its bounds."""
     height, width = first.shape
     a, b, c = matrix[0, 0], matrix[0, 1], matrix[0, 2]
     d, e, f = matrix[1, 0], matrix[1, 1], matrix[1, 2]
@@ -33,7 +34,8 @@ def shared_free(
                 continue
             x = np.rint(a * col + b * row + c)
             y = np.rint(d * col + e * row + f)
-            if x < 0 or x >= width or y < 0 or y >= height:
+            # Written so that a NaN fails too (the caller checks the matrix).
+            if not (0 <= x < width and 0 <= y < height):
                 continue
             landed = first[int(y), int(x)]
             if 0 <= landed <= FREE_THRESHOLD:

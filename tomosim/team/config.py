@@ -231,7 +231,9 @@ class TeamConfig:
         real_number(self.confirm_translation_m, "confirm_translation_m", low=0.0, unit="metres")
         real_number(self.oracle_error_deg, "oracle_error_deg", low=0.0, unit="degrees")
         real_number(self.oracle_error_m, "oracle_error_m", low=0.0, unit="metres")
-        real_number(self.oracle_min_shared_m2, "oracle_min_shared_m2", low=0.0, unit="m²")
+        real_number(
+            self.oracle_min_shared_m2, "oracle_min_shared_m2", low=0.0, unit="square metres"
+        )
         if (self.oracle_error_deg or self.oracle_error_m) and self.method != ORACLE:
             raise ValueError(
                 "oracle_error_deg and oracle_error_m perturb the oracle's transforms; they "

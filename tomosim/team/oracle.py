@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from merging import available_methods
 from merging.grid import OccupancyGrid
 from merging.result import MergeResult
-from merging.validators import one_of
+from merging.validators import one_of, real_number
 from tomosim.frames import pose_matrix
 from tomosim.team.merger import PairEstimator
 from tomosim.team.quality import shared_free_area, true_relative
@@ -76,16 +76,14 @@ def oracle_estimator(
     min_shared_m2 : float
         Square metres of free space the two maps must share under the true
         transform (:func:`~tomosim.team.quality.shared_free_area`) before the
-        oracle accepts the pair (0: always, whatever the maps hold).
+        oracle accepts the pair (0: always, whatever the maps hold). Above 0 every
+        answer carries the area in ``evidence["shared_free_m2"]``.
     """
     poses = np.array(starts, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 3 or not np.all(np.isfinite(poses)):
         raise ValueError(f"starts must be a finite (N, 3) array of poses, got shape {poses.shape}")
-    for value, name in (
-        (error_deg, "error_deg"),
-        (error_m, "error_m"),
-        (min_shared_m2, "min_shared_m2"),
-    ):
+    real_number(min_shared_m2, "min_shared_m2", low=0.0, unit="square metres")
+    for value, name in ((error_deg, "error_deg"), (error_m, "error_m")):
         if not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
@@ -112,7 +110,7 @@ def oracle_estimator(
         if shared >= min_shared_m2:
             return replace(answer, evidence=evidence)
         reason = (
-            f"the maps share {shared:.1f} m² of free space, less than the "
+            f"the maps share {shared:.2f} m² of free space, less than the "
             f"{min_shared_m2:g} m² the oracle waits for"
         )
         return replace(answer, confidence=0.0, accepted=False, reason=reason, evidence=evidence)

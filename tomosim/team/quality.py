@@ -73,6 +73,10 @@ def shared_free_area(
     :func:`shared_free_numpy` is its specification.
     """
     matrix = np.ascontiguousarray(cells, dtype=np.float64)
+    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+        raise ValueError(
+            f"cells must be a finite 3x3 matrix (grid j's cells to grid i's), got {cells!r}"
+        )
     count = shared_free(
         np.ascontiguousarray(grid_i.data), np.ascontiguousarray(grid_j.data), matrix
     )

@@ -111,6 +111,9 @@ def test_the_shared_free_area_counts_free_space_both_grids_know() -> None:
     assert shared_free_area(a, b, shift) == pytest.approx(23 * 0.25)
     # Laid away from a's free block, they share nothing.
     assert shared_free_area(a, b, pose_matrix((0.0, 7.0, 0.0))) == 0.0
+    for bad in (np.full((3, 3), np.nan), np.eye(2)):
+        with pytest.raises(ValueError, match="cells must be a finite 3x3"):
+            shared_free_area(a, b, bad)
 
 
 def test_an_oracle_waiting_for_overlap_refuses_pairs_that_share_too_little(
@@ -124,7 +127,7 @@ def test_an_oracle_waiting_for_overlap_refuses_pairs_that_share_too_little(
     strict = oracle_estimator(starts, min_shared_m2=1.0)
     refused = strict(0, 1, seen, lone)
     assert not refused.accepted and refused.confidence == 0.0
-    assert "0.0 m²" in refused.reason and "1 m²" in refused.reason
+    assert "0.00 m²" in refused.reason and "1 m²" in refused.reason
     # Its answer is still the truth, which a later round accepts once the maps overlap.
     plain = oracle_estimator(starts)(0, 1, seen, lone)
     np.testing.assert_allclose(refused.matrix, plain.matrix, atol=EXACT)
