@@ -363,8 +363,8 @@ def main(argv: list[str] | None = None) -> int:
                             args.out / f"{method}_{a}_{b}.png")  # fmt: skip
     settings = changed(params)
     listed = ", ".join(f"`{name}={value}`" for name, value in settings.items())
-    named = [f"Default merger's settings changed (`--merger`): {listed}.", ""] if settings else []
-    lines = ["# Cycles of three on floors without a known truth", "", *named,
+    note = [f"Default merger's settings changed (`--merger`): {listed}.", ""] if settings else []
+    lines = ["# Cycles of three on floors without a known truth", "", *note,
              *report(answers, closed, refused, args.look_cells, linked)]  # fmt: skip
     md_path = args.out / "cycles.md"
     md_path.write_text("\n".join(lines) + "\n")

@@ -23,6 +23,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -51,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     linking = merging.merge_all(grids, rng=0).linking
     seconds = time.perf_counter() - clock
     args.out.mkdir(parents=True, exist_ok=True)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for key, entry in sorted(truth.items()):
         first, second = key.split("|")
         if first not in names or second not in names:
@@ -63,11 +64,11 @@ def main(argv: list[str] | None = None) -> int:
         pair = linking.pair(i, j)  # map j -> map i, whichever order
         pairwise = transform_error(pair.matrix, known, cells)[0]
         implied = linking.relative(i, j)
-        linked = np.nan if implied is None else transform_error(implied, known, cells)[0]
+        through = np.nan if implied is None else transform_error(implied, known, cells)[0]
         rows.append({
             "pair": key, "tolerance": round(tolerance, 1),
             "pairwise_cells": round(pairwise, 1), "pairwise_accepted": pair.accepted,
-            "linked_cells": round(float(linked), 1),
+            "linked_cells": round(float(through), 1),
         })  # fmt: skip
     with (args.out / "linking.csv").open("w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))

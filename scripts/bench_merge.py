@@ -43,7 +43,7 @@ import numpy as np
 import merging
 from merging.evaluation.metrics import matching_index, transform_error
 from merging.evaluation.pairs import cut_window_pairs
-from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.commands.script_args import non_negative_int, positive_int, run_script, shared_maps
 from tomosim.data import maps_dir, maps_missing
 
 DEFAULT_MAPS = ("aces3", "intel", "fr079", "brsu_c069")
@@ -89,7 +89,7 @@ def has_opencv() -> bool:
 
 def run_pairs(names, methods, pairs_per_map, seed, writer, handle) -> list[Row]:
     rows: list[Row] = []
-    folder = maps_dir()
+    folder = shared_maps()
     for name in names:
         grid = merging.load_map(folder / f"{name}.yaml")
         pairs = cut_window_pairs(grid.data, count=pairs_per_map, rng=seed)
@@ -137,7 +137,7 @@ def summarise(rows: list[Row]) -> dict[str, float]:
 
 
 def scaling(methods, sizes, repeats, seed) -> dict[str, dict[int, list[float]]]:
-    grid = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml")
+    grid = merging.load_map(shared_maps() / f"{SCALING_MAP}.yaml")
     times: dict[str, dict[int, list[float]]] = {m: {} for m in methods}
     for size in sizes:
         slow = [m for m in methods if times[m] and np.median(times[m][max(times[m])]) > SLOW]
@@ -166,7 +166,7 @@ def padded_scaling(sizes, repeats, seed) -> dict[int, tuple[float, float]]:
     stays the same and only the unknown area around it grows. Returns per
     side the median seconds and the largest error in cells RMS.
     """
-    whole = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml").data
+    whole = merging.load_map(shared_maps() / f"{SCALING_MAP}.yaml").data
     rows, cols = whole.shape
     out: dict[int, tuple[float, float]] = {}
     for size in sizes:
@@ -326,7 +326,7 @@ def main(argv: list[str] | None = None) -> int:
     padded_sizes = [size for size in PADDED_SIZES if args.sizes and size <= max(args.sizes)]
     if padded_sizes:
         padded = padded_scaling(padded_sizes, args.size_repeats, args.seed)
-        shape = merging.load_map(maps_dir() / f"{SCALING_MAP}.yaml").shape
+        shape = merging.load_map(shared_maps() / f"{SCALING_MAP}.yaml").shape
         report += "\n" + padded_markdown(padded, shape)
     args.out.with_suffix(".md").write_text(report + "\n")
     if times:

@@ -74,6 +74,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,6 +83,7 @@ import merging
 from merging.api import DEFAULT_METHOD
 from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
+from merging.grid import OccupancyGrid
 from merging.params import TomographicParams
 from merging.tomographic.search import refine_from
 from merging.transforms import rigid_matrix
@@ -126,8 +128,8 @@ class Case:
     suite: str
     group: str
     name: str
-    map1: object
-    map2: object
+    map1: OccupancyGrid | NDArray[Any]
+    map2: OccupancyGrid | NDArray[Any]
     truth: NDArray[np.float64] | None
     tolerance: float
 
@@ -252,6 +254,7 @@ def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle,
                 continue
             start, cpu_start = time.perf_counter(), time.process_time()
             if method in TRUTH_ROWS:
+                assert case.truth is not None  # cases without a truth were skipped above
                 result = refine_from(case.map1, case.map2, case.truth,
                                      held_against_search=method == TRUTH_IN_SEARCH,
                                      **settings)  # fmt: skip

@@ -133,7 +133,7 @@ def main(argv: list[str] | None = None) -> int:
     add_merger_argument(parser)
     args = parser.parse_args(argv)
     params = merger_params(args.merger)
-    options = {} if params is None else {"params": params}
+    options: dict[str, Any] = {} if params is None else {"params": params}
     if args.limit is not None and args.limit < 1:
         parser.error(f"--limit must be at least 1, got {args.limit}")
     if maps_dir() is None:
