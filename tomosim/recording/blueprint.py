@@ -117,6 +117,13 @@ def chart_views(*, merging: bool) -> list[rrb.TimeSeriesView]:
                 origin="/",
                 contents=[f"+ {quantity_path('confidence')}/**", f"+ {AGREEMENT}"],
             ),
+            rrb.TimeSeriesView(
+                name="Shared free space [m²]",
+                origin="/",
+                contents=[f"+ {quantity_path('shared_free_m2')}/**"],
+                # Overlap grows from nothing: the upper left stays clear.
+                plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftTop),
+            ),
         ]
     charts += [
         rrb.TimeSeriesView(

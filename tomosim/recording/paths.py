@@ -77,6 +77,7 @@ PAIR_QUANTITIES = (
     "matching_index",
     "rotation_error_deg",
     "translation_error_m",
+    "shared_free_m2",
 )
 """Logged per pair and round; the two errors only for estimates the merger accepted."""
 ERROR_QUANTITIES = ("rotation_error_deg", "translation_error_m")

@@ -481,6 +481,7 @@ class Recorder:
                 "matching_index": pair.matching_index,
                 "rotation_error_deg": pair.rotation_error_deg,
                 "translation_error_m": pair.translation_error_m,
+                "shared_free_m2": pair.shared_free_m2,
             }
             for quantity, value in values.items():
                 if quantity in ERROR_QUANTITIES and not pair.accepted:

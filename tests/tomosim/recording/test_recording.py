@@ -159,7 +159,7 @@ def test_every_view_is_2d_or_a_chart_and_shows_recorded_entities(
     kinds = [view.kind for view in views]
     assert "3D" not in kinds
     assert kinds.count("2D") == 1 + 1 + 2  # the world, the merged map, two robots' maps
-    assert kinds.count("TimeSeries") == 5
+    assert kinds.count("TimeSeries") == 6
     for view in views:
         assert view.origin == "/", view
         selected: set[str] = set()
@@ -278,6 +278,7 @@ def test_series_read_back_equal_what_was_logged(
         np.testing.assert_equal(
             run.pair("r0-r1", "matching_index").at(merge.step), pair.matching_index
         )
+        assert run.pair("r0-r1", "shared_free_m2").at(merge.step) == pair.shared_free_m2
         rotation = run.pair("r0-r1", "rotation_error_deg").at(merge.step)
         # Errors are logged for accepted estimates only.
         assert rotation == (pair.rotation_error_deg if pair.accepted else None)
