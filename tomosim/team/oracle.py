@@ -40,7 +40,7 @@ from merging.result import MergeResult
 from merging.validators import one_of, real_number
 from tomosim.frames import pose_matrix
 from tomosim.team.merger import PairEstimator
-from tomosim.team.quality import shared_free_area, true_relative
+from tomosim.team.quality import in_cells, shared_free_area, true_relative
 
 ORACLE = "oracle"
 """The method name of the known-poses bound."""
@@ -93,10 +93,8 @@ def oracle_estimator(
         metres = true_relative(poses[i], poses[j])
         if error_deg or error_m:
             metres = metres @ pair_error(i, j, error_deg, error_m)
-        into_i = np.linalg.inv(grid_i.cell_to_world_matrix())
-        cells = np.asarray(into_i @ metres @ grid_j.cell_to_world_matrix(), dtype=np.float64)
         answer = MergeResult(
-            matrix=cells,
+            matrix=in_cells(grid_i, grid_j, metres),
             confidence=1.0,
             accepted=True,
             method=ORACLE,
@@ -104,8 +102,8 @@ def oracle_estimator(
         )
         if min_shared_m2 <= 0:
             return answer
-        true_cells = into_i @ true_relative(poses[i], poses[j]) @ grid_j.cell_to_world_matrix()
-        shared = shared_free_area(grid_i, grid_j, true_cells)
+        truth = in_cells(grid_i, grid_j, true_relative(poses[i], poses[j]))
+        shared = shared_free_area(grid_i, grid_j, truth)
         evidence = {"shared_free_m2": shared}
         if shared >= min_shared_m2:
             return replace(answer, evidence=evidence)

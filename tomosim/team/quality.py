@@ -62,6 +62,15 @@ def true_relative(start_i: ArrayLike, start_j: ArrayLike) -> NDArray[np.float64]
     return np.asarray(np.linalg.inv(pose_matrix(start_i)) @ pose_matrix(start_j), dtype=np.float64)
 
 
+def in_cells(
+    grid_i: OccupancyGrid, grid_j: OccupancyGrid, metres: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``metres`` (frame ``j`` to frame ``i``) as the matrix taking grid ``j``'s cells to
+    grid ``i``'s: ``inv(C_i) @ metres @ C_j`` (:meth:`OccupancyGrid.cell_to_world_matrix`)."""
+    into_i = np.linalg.inv(grid_i.cell_to_world_matrix())
+    return np.asarray(into_i @ metres @ grid_j.cell_to_world_matrix(), dtype=np.float64)
+
+
 def shared_free_area(
     grid_i: OccupancyGrid, grid_j: OccupancyGrid, cells: NDArray[np.float64]
 ) -> float:
@@ -198,9 +207,6 @@ def pair_quality(
     scored = result.accepted and bool(np.all(np.isfinite(result.matrix)))
     overlap = matching_index(grids[0].data, grids[1].data, result.matrix) if scored else np.nan
     pose = matrix_to_pose(estimate) if np.all(np.isfinite(estimate)) else (NO_ESTIMATE,) * 3
-    true_cells = (
-        np.linalg.inv(grids[0].cell_to_world_matrix()) @ truth @ grids[1].cell_to_world_matrix()
-    )
     return PairQuality(
         first=outcome.first,
         second=outcome.second,
@@ -215,7 +221,7 @@ def pair_quality(
         translation_error_m=translation,
         reason=result.reason,
         dropped=outcome.dropped,
-        shared_free_m2=shared_free_area(grids[0], grids[1], true_cells),
+        shared_free_m2=shared_free_area(grids[0], grids[1], in_cells(*grids, truth)),
     )
 
 
