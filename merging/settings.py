@@ -27,6 +27,7 @@ The same names reach the settings from the command line:
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
@@ -98,19 +99,60 @@ def with_settings(
     Raises
     ------
     ValueError
-        For an unknown name (the message lists the known ones) or a value the
-        setting refuses (the settings objects check their fields).
+        For an unknown name (the message suggests the names meant,
+        :func:`unknown_setting`) or a value the setting refuses (the settings
+        objects check their fields).
     """
     known = setting_names(config)
     for name, value in settings.items():
         if name not in known:
-            raise ValueError(
-                f"no {what} named {name!r}; the settings are: {', '.join(sorted(known))}"
-            )
+            raise ValueError(unknown_setting(name, known, what=what))
         if isinstance(value, str) and known[name] is not str:
             value = parse_value(value, known[name], name)
         config = _replaced(config, name.split("."), value)
     return config
+
+
+def unknown_setting(name: str, known: Mapping[str, type], *, what: str = "setting") -> str:
+    """Why ``name`` is not among the ``known`` setting names, and which names may be meant.
+
+    Within ``name``'s group when it names one (``robust.margn``: the
+    ``robust.*`` settings), else among all: the names whose last part starts
+    with ``name``'s or is spelled nearly as it is (``accept`` finds
+    ``confidence.accept``); failing those (or for a group named whole), the
+    group's settings, or the
+    settings without a group and the groups with their sizes (rather than
+    every name).
+
+    >>> print(unknown_setting("confidence.acept", {"confidence.accept": float, "peaks": int}))
+    no setting named 'confidence.acept'; did you mean confidence.accept?
+    """
+    group = name.rsplit(".", 1)[0] + "." if "." in name else ""
+    if any(candidate.startswith(f"{name}.") for candidate in known):
+        group = f"{name}."  # a group named whole: list its settings
+    members = sorted(candidate for candidate in known if group and candidate.startswith(group))
+    pool = members or sorted(known)
+    last = name.rsplit(".", 1)[-1]
+    ends = {candidate.rsplit(".", 1)[-1]: candidate for candidate in pool}
+    near = [ends[end] for end in ends if last and end.startswith(last)]
+    near += [
+        ends[end]
+        for end in difflib.get_close_matches(last, list(ends), n=3, cutoff=0.75)
+        if ends[end] not in near
+    ]
+    message = f"no {what} named {name!r}"
+    if near:
+        return f"{message}; did you mean {' or '.join(near[:4])}?"
+    if members:
+        return f"{message}; the {group}* settings are: {', '.join(members)}"
+    plain = [candidate for candidate in pool if "." not in candidate]
+    groups: dict[str, int] = {}
+    for candidate in pool:
+        if "." in candidate:
+            head = candidate.split(".", 1)[0]
+            groups[head] = groups.get(head, 0) + 1
+    listed = plain + [f"{head}.* ({count})" for head, count in sorted(groups.items())]
+    return f"{message}; the settings are: {', '.join(listed)}"
 
 
 def _replaced(config: Any, path: list[str], value: Any) -> Any:

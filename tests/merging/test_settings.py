@@ -12,6 +12,7 @@ from merging.settings import (
     parse_assignments,
     setting_names,
     setting_value,
+    unknown_setting,
     with_settings,
 )
 
@@ -54,6 +55,47 @@ def test_settings_change_nested_copies_and_are_listed() -> None:
 def test_bad_settings_are_named(settings: dict[str, str], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         with_settings(DEFAULT_PARAMS, settings, what="merger setting")
+
+
+TEAM_LIKE = {
+    "confirmations": int,
+    "confirm_rotation_deg": float,
+    "merge": bool,
+    "tracker.keep_confidence": float,
+    "merger.confidence.accept": float,
+    "merger.confidence.mirror_margin": float,
+    "merger.robust.margin": float,
+    "simulation.lidar.beams": int,
+}
+
+
+@pytest.mark.parametrize(
+    ("name", "message"),
+    [
+        # a typo within a group, and a name's last part alone
+        ("merger.confidence.acept", "did you mean merger.confidence.accept?"),
+        ("beams", "did you mean simulation.lidar.beams?"),
+        ("lidar.beams", "did you mean simulation.lidar.beams?"),
+        # the start of a name
+        ("confirm", "did you mean confirm_rotation_deg or confirmations?"),
+        # nothing near: the group's settings, or the groups with their sizes
+        (
+            "merger.confidence.nothing",
+            "the merger.confidence.* settings are: merger.confidence.accept, "
+            "merger.confidence.mirror_margin",
+        ),
+        ("tracker", "the tracker.* settings are: tracker.keep_confidence"),
+        (
+            "zzz",
+            "the settings are: confirm_rotation_deg, confirmations, merge, merger.* (3), "
+            "simulation.* (1), tracker.* (1)",
+        ),
+    ],
+)
+def test_an_unknown_setting_suggests_the_names_meant(name: str, message: str) -> None:
+    assert unknown_setting(name, TEAM_LIKE, what="team setting") == (
+        f"no team setting named {name!r}; {message}"
+    )
 
 
 def test_assignments_are_name_value_pairs() -> None:
