@@ -32,6 +32,8 @@ from pathlib import Path
 
 from PIL import Image
 
+from merging.validators import near_names
+
 MAPS_ENV = "TOMOSIM_MAPS"
 """Environment variable naming the folders of maps (separated by ``os.pathsep``)."""
 SHARED_ENV = "TOMOSIM_SHARED"
@@ -142,10 +144,24 @@ def find_map(source: str | Path) -> Path:
             candidate = folder / f"{name}{suffix}"
             if candidate.is_file():
                 return candidate
+    near = near_names(name, _map_names(folders), separator="/")
+    meant = f" (did you mean {' or '.join(near)}?)" if near else ""
     raise FileNotFoundError(
-        f"no map named {name!r} in {describe_folders(folders)}; `tomosim maps` lists the "
-        "maps found, or give the path of a map_server YAML file"
+        f"no map named {name!r}{meant} in {describe_folders(folders)}; `tomosim maps` lists "
+        "the maps found, or give the path of a map_server YAML file"
     )
+
+
+def _map_names(folders: tuple[Path, ...]) -> set[str]:
+    """The names of the YAML files under ``folders`` (as :func:`list_maps` names them,
+    without reading them)."""
+    return {
+        path.relative_to(folder).with_suffix("").as_posix()
+        for folder in folders
+        if folder.is_dir()
+        for suffix in MAP_SUFFIXES
+        for path in folder.rglob(f"*{suffix}")
+    }
 
 
 @dataclass(frozen=True, slots=True)

@@ -27,10 +27,11 @@ The same names reach the settings from the command line:
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
+
+from merging.validators import near_names
 
 SCALARS = (bool, int, float, str)
 """The kinds of value a named setting holds (the leaves of the nested settings)."""
@@ -117,12 +118,11 @@ def unknown_setting(name: str, known: Mapping[str, type], *, what: str = "settin
     """Why ``name`` is not among the ``known`` setting names, and which names may be meant.
 
     Within ``name``'s group when it names one (``robust.margn``: the
-    ``robust.*`` settings), else among all: the names whose last part starts
-    with ``name``'s or is spelled nearly as it is (``accept`` finds
+    ``robust.*`` settings), else among all, the names it may have meant
+    (:func:`merging.validators.near_names`: ``accept`` finds
     ``confidence.accept``); failing those (or for a group named whole), the
-    group's settings, or the
-    settings without a group and the groups with their sizes (rather than
-    every name).
+    group's settings, or the settings without a group and the groups with
+    their sizes (rather than every name).
 
     >>> print(unknown_setting("confidence.acept", {"confidence.accept": float, "peaks": int}))
     no setting named 'confidence.acept'; did you mean confidence.accept?
@@ -132,17 +132,10 @@ def unknown_setting(name: str, known: Mapping[str, type], *, what: str = "settin
         group = f"{name}."  # a group named whole: list its settings
     members = sorted(candidate for candidate in known if group and candidate.startswith(group))
     pool = members or sorted(known)
-    last = name.rsplit(".", 1)[-1]
-    ends = {candidate.rsplit(".", 1)[-1]: candidate for candidate in pool}
-    near = [ends[end] for end in ends if last and end.startswith(last)]
-    near += [
-        ends[end]
-        for end in difflib.get_close_matches(last, list(ends), n=3, cutoff=0.75)
-        if ends[end] not in near
-    ]
+    near = near_names(name, pool)
     message = f"no {what} named {name!r}"
     if near:
-        return f"{message}; did you mean {' or '.join(near[:4])}?"
+        return f"{message}; did you mean {' or '.join(near)}?"
     if members:
         return f"{message}; the {group}* settings are: {', '.join(members)}"
     plain = [candidate for candidate in pool if "." not in candidate]

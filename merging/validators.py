@@ -1,5 +1,5 @@
 """Checks of settings: whole numbers, real numbers in a range, a choice among names, a
-switch, and the source of randomness.
+switch, and the source of randomness; and the names a misspelt one may have meant.
 
 Every settings object and entry point of ``merging``, ``tomosim`` and ``envs``
 checks its input with these, so that a bad value is refused where it is given,
@@ -21,6 +21,7 @@ of the right kind out of its range raises ``ValueError``.
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 from collections.abc import Collection
@@ -155,6 +156,35 @@ def one_of(value: object, choices: Collection[str], *, what: str) -> str:
     if not isinstance(value, str) or value not in choices:
         raise ValueError(f"unknown {what} {value!r}; choose one of: {', '.join(choices)}")
     return value
+
+
+def near_names(name: str, candidates: Collection[str], *, separator: str = ".") -> list[str]:
+    """The ``candidates`` a misspelt or shortened ``name`` may have meant, nearest first.
+
+    Names are paths of parts joined by ``separator`` (``merger.confidence.accept``,
+    ``halmstad/E5_01``); a name is often given by its last part alone, or with a
+    typo in it. The candidates whose last part is ``name``'s, if any; else
+    those whose last part starts with it, then those whose last part is
+    spelled nearly as it is; at most four.
+
+    >>> near_names("accept", ["confidence.accept", "robust.margin"])
+    ['confidence.accept']
+    >>> near_names("E5_1", ["halmstad/E5_01", "aces3"], separator="/")
+    ['halmstad/E5_01']
+    """
+    last = name.rsplit(separator, 1)[-1]
+    ends: dict[str, list[str]] = {}
+    for candidate in sorted(candidates):
+        ends.setdefault(candidate.rsplit(separator, 1)[-1], []).append(candidate)
+    if last in ends:
+        return ends[last][:4]  # the name's last part, whole: the group was left out
+    near = [end for end in ends if last and end.startswith(last)]
+    near += [
+        end
+        for end in difflib.get_close_matches(last, list(ends), n=4, cutoff=0.75)
+        if end not in near
+    ]
+    return [candidate for end in near for candidate in ends[end]][:4]
 
 
 def boolean(value: object, name: str) -> bool:

@@ -49,6 +49,16 @@ def test_an_unknown_name_lists_the_folders_searched(maps_path) -> None:
     message = str(raised.value)
     assert "no map named 'c'" in message
     assert str(first) in message and str(second) in message and catalog.MAPS_ENV in message
+    assert "did you mean" not in message  # nothing near 'c'
+
+
+def test_an_unknown_name_suggests_the_maps_meant(maps_path) -> None:
+    with pytest.raises(FileNotFoundError, match=r"no map named 'b' \(did you mean lab/b\?\)"):
+        merging.load_map("b")  # the folder left out
+    first, _ = maps_path
+    write(first, "halls/corridor")
+    with pytest.raises(FileNotFoundError, match=r"\(did you mean halls/corridor\?\)"):
+        catalog.find_map("coridor")  # a typo, and the folder left out
 
 
 def test_paths_are_taken_as_they_are(maps_path, tmp_path: Path) -> None:

@@ -11,6 +11,7 @@ from merging.validators import (
     SettingTypeError,
     as_generator,
     boolean,
+    near_names,
     one_of,
     real_number,
     whole_number,
@@ -117,3 +118,25 @@ def test_as_generator_passes_a_generator_through_and_seeds_the_rest() -> None:
 def test_as_generator_names_what_it_takes(rng: object, error: type) -> None:
     with pytest.raises(error, match="seed must be None, a non-negative int"):
         as_generator(rng, name="seed")
+
+
+@pytest.mark.parametrize(
+    ("name", "meant"),
+    [
+        ("accept", ["confidence.accept"]),  # the last part alone
+        ("confidence.acept", ["confidence.accept"]),  # a typo
+        ("mar", ["robust.margin", "robust.margin_cells"]),  # the start of the last part
+        ("margin", ["robust.margin"]),  # a whole last part wins over longer ones
+        ("zzz", []),
+    ],
+)
+def test_near_names_are_those_a_misspelt_name_may_mean(name: str, meant: list[str]) -> None:
+    candidates = ["confidence.accept", "robust.margin", "robust.margin_cells", "peaks"]
+    assert near_names(name, candidates) == meant
+
+
+def test_near_names_are_at_most_four_and_split_by_the_separator() -> None:
+    sessions = [f"halmstad/E5_{k:02d}" for k in range(1, 15)]
+    assert near_names("E5_03", sessions, separator="/") == ["halmstad/E5_03"]
+    assert len(near_names("E5_1", sessions, separator="/")) == 4
+    assert near_names("E5_03", sessions) == []  # no dots: the whole name is compared
