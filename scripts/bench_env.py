@@ -70,6 +70,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import IO, Any
 
@@ -268,9 +269,10 @@ def bench_supersuit(
         if processes == 0:
             wait_for_worker()
         generator = np.random.default_rng(ACTION_SEED_OFFSET + repeat)
+        actions = partial(generator.uniform, -1.0, 1.0, (venv.num_envs, 2))  # one per agent
+        warm_up_vector(venv, actions)
+        seconds = advance_vector(venv, steps, actions)
         count = venv.num_envs  # agents over all environments
-        warm_up_vector(venv, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
-        seconds = advance_vector(venv, steps, lambda n=count, g=generator: g.uniform(-1, 1, (n, 2)))
         rates.append(count * steps / seconds)
         venv.close()
     return rates
@@ -372,8 +374,8 @@ def main() -> None:
     for robots in args.robots:
         print(row(f"{robots} robots", *bench_single(robots, args.steps, args.repeats)), flush=True)
         if args.no_merge:
-            rates = bench_single(robots, args.steps, args.repeats, **merging_off())
-            print(row(f"{robots} robots, no merging", *rates), flush=True)
+            off = bench_single(robots, args.steps, args.repeats, **merging_off())
+            print(row(f"{robots} robots, no merging", *off), flush=True)
     if args.vector:
         print(header("K environments, SuperSuit vector env (3 robots each)"))
         for count in args.vector:

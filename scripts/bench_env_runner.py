@@ -33,6 +33,7 @@ import numpy as np
 
 from envs import multi_robot_exploration_v0 as exploration
 
+WorkerSearches: Any
 try:
     from tomosim.team.worker import WorkerSearches
 except ImportError:  # a checkout from before the search worker

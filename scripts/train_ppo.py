@@ -70,7 +70,7 @@ def learning_callback(path: Path, robots: int) -> Any:
     """A Stable-Baselines3 callback writing one CSV row per finished training episode."""
     from stable_baselines3.common.callbacks import BaseCallback
 
-    class LearningCurve(BaseCallback):  # type: ignore[misc]  # SB3 is untyped here
+    class LearningCurve(BaseCallback):
         def _on_training_start(self) -> None:
             self.clock = time.perf_counter()
             self.handle = path.open("w", newline="")

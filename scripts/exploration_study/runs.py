@@ -86,7 +86,7 @@ def run_world(
     def progress(row: dict[str, object]) -> None:
         reached = row["time_to_target_s"] or "-"
         print(
-            f"  {world.label} {row['key'].split('|', 1)[1]}: "  # type: ignore[union-attr]
+            f"  {world.label} {str(row['key']).split('|', 1)[1]}: "
             f"90 % at {reached} s, coverage {row['coverage']}, {row['wall_seconds']} s wall",
             file=sys.stderr,
             flush=True,
