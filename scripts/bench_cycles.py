@@ -73,13 +73,20 @@ class Answer:
     first: str
     second: str
     method: str
-    accepted: bool
-    confidence: float
     seconds: float
-    matrix: NDArray[np.float64]
-    reason: str
-    result: MergeResult | None = None
-    """The method's full answer, for the linking (not written to ``pairs.csv``)."""
+    result: MergeResult
+
+    @property
+    def accepted(self) -> bool:
+        return bool(self.result.accepted)
+
+    @property
+    def matrix(self) -> NDArray[np.float64]:
+        return self.result.matrix
+
+    @property
+    def reason(self) -> str:
+        return self.result.reason
 
 
 def sessions(folder: Path, floor: str) -> list[str]:
@@ -110,13 +117,11 @@ def merge_floor(
             result = merging.estimate_transform(grids[first], grids[second], method=method,
                                                 rng=0, **options)  # fmt: skip
             seconds = time.perf_counter() - start
-            answer = Answer(floor, first, second, method, bool(result.accepted),
-                            float(result.confidence), seconds, result.matrix,
-                            result.reason, result)  # fmt: skip
+            answer = Answer(floor, first, second, method, seconds, result)
             answers.append(answer)
             writer.writerow({
                 "floor": floor, "first": first, "second": second, "method": method,
-                "accepted": answer.accepted, "confidence": round(answer.confidence, 4),
+                "accepted": answer.accepted, "confidence": round(result.confidence, 4),
                 "seconds": round(seconds, 4), "matrix": json.dumps(result.matrix.tolist()),
                 "reason": answer.reason,
             })  # fmt: skip
@@ -188,11 +193,6 @@ def linked_against_answers(
     index = {name: k for k, name in enumerate(names)}
     pairs = {}
     for answer in answers:
-        if answer.result is None:
-            raise ValueError(
-                f"the answer for {answer.first} | {answer.second} holds no result to link; "
-                "link the answers merge_floor returns"
-            )
         pairs[(index[answer.first], index[answer.second])] = answer.result
     linking = merging.link_maps([grids[name] for name in names], pairs)
     distances: list[tuple[bool, float | None]] = []
