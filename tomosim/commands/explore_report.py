@@ -151,10 +151,12 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         confirmed = sum(1 for row in rows if row[2])
         last = metrics.merges[-1]
         merged = ", ".join(f"r{k}" for k in last.merged_robots)
+        first = metrics.merge_stats().first_link_step
+        since = "" if first is None else f"; first link at step {first}"
         lines += [
             f"{'merge rounds':<18}{len(metrics.merges)}: {accepted} of {len(rows)} pair "
             f"estimates accepted, {confirmed} confirmed and used",
-            f"{'merged map':<18}{merged}; agreement with the truth {last.agreement:.3f}",
+            f"{'merged map':<18}{merged}{since}; agreement with the truth {last.agreement:.3f}",
         ]
     drift = "; ".join(f"r{k} {h:.2f} deg {p:.2f} m" for k, (h, p) in enumerate(metrics.drift))
     lines.append(f"{'odometry drift':<18}{drift}")
