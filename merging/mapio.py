@@ -72,6 +72,16 @@ class _NoAliasLoader(yaml.SafeLoader):
 
 def _read_yaml(path: Path) -> object:
     """The YAML document in ``path``, refusing what no map_server YAML is (ValueError)."""
+    with path.open("rb") as handle:
+        # The map's image given in place of its YAML file is the common mistake, and an
+        # image is mostly larger than a YAML file may be: say so before the size.
+        head = handle.read(max(len(signature) for signature, _ in IMAGE_SIGNATURES))
+    for signature, kind in IMAGE_SIGNATURES:
+        if head.startswith(signature):
+            raise ValueError(
+                f"{path} is a {kind} image, not a map_server YAML file; "
+                "pass the .yaml file that names it"
+            )
     size = path.stat().st_size
     if size > MAX_YAML_BYTES:
         raise ValueError(
@@ -79,12 +89,6 @@ def _read_yaml(path: Path) -> object:
             f"{MAX_YAML_BYTES}); pass the .yaml file that names the map's image"
         )
     raw = path.read_bytes()
-    for signature, kind in IMAGE_SIGNATURES:
-        if raw.startswith(signature):
-            raise ValueError(
-                f"{path} is a {kind} image, not a map_server YAML file; "
-                "pass the .yaml file that names it"
-            )
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -216,6 +216,12 @@ def test_an_image_passed_as_yaml_is_named(tmp_path: Path) -> None:
     pgm = save_map(OccupancyGrid(np.zeros((4, 4), np.int8)), tmp_path / "n.yaml")
     with pytest.raises(ValueError, match="PGM image"):
         load_map(pgm)
+    # A map's image is mostly larger than a YAML file may be: still named as an image.
+    noise = np.random.default_rng(0).choice(np.array([-1, 0, 100], np.int8), (800, 800))
+    large = save_map(OccupancyGrid(noise), tmp_path / "large.yaml", image_format="png")
+    assert large.stat().st_size > MAX_YAML_BYTES
+    with pytest.raises(ValueError, match=r"large\.png is a PNG image"):
+        load_map(large)
     binary = tmp_path / "blob.yaml"
     binary.write_bytes(b"image: \xff\xfe\x00")
     with pytest.raises(ValueError, match="not a text file"):
