@@ -144,7 +144,10 @@ def find_map(source: str | Path) -> Path:
             candidate = folder / f"{name}{suffix}"
             if candidate.is_file():
                 return candidate
-    near = near_names(name, _map_names(folders), separator="/")
+    try:
+        near = near_names(name, _map_names(folders) - {name}, separator="/")
+    except OSError:  # a folder that cannot be walked: no suggestion, the message stands
+        near = []
     meant = f" (did you mean {' or '.join(near)}?)" if near else ""
     raise FileNotFoundError(
         f"no map named {name!r}{meant} in {describe_folders(folders)}; `tomosim maps` lists "
@@ -159,8 +162,8 @@ def _map_names(folders: tuple[Path, ...]) -> set[str]:
         path.relative_to(folder).with_suffix("").as_posix()
         for folder in folders
         if folder.is_dir()
-        for suffix in MAP_SUFFIXES
-        for path in folder.rglob(f"*{suffix}")
+        for path in folder.rglob("*")
+        if path.suffix in MAP_SUFFIXES and path.is_file()
     }
 
 

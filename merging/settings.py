@@ -117,34 +117,43 @@ def with_settings(
 def unknown_setting(name: str, known: Mapping[str, type], *, what: str = "setting") -> str:
     """Why ``name`` is not among the ``known`` setting names, and which names may be meant.
 
-    Within ``name``'s group when it names one (``robust.margn``: the
-    ``robust.*`` settings), else among all, the names it may have meant
-    (:func:`merging.validators.near_names`: ``accept`` finds
-    ``confidence.accept``); failing those (or for a group named whole), the
+    A group of settings named whole, or by its last part (``robust`` for
+    ``merger.robust``), lists the group's settings. Otherwise the names it may
+    have meant (:func:`merging.validators.near_names`: ``accept`` finds
+    ``confidence.accept``), within the group it names first (``robust.margn``:
+    among the ``robust.*`` settings), then among all; failing those, the
     group's settings, or the settings without a group and the groups with
     their sizes (rather than every name).
 
     >>> print(unknown_setting("confidence.acept", {"confidence.accept": float, "peaks": int}))
     no setting named 'confidence.acept'; did you mean confidence.accept?
     """
-    group = name.rsplit(".", 1)[0] + "." if "." in name else ""
-    if any(candidate.startswith(f"{name}.") for candidate in known):
-        group = f"{name}."  # a group named whole: list its settings
-    members = sorted(candidate for candidate in known if group and candidate.startswith(group))
-    pool = members or sorted(known)
-    near = near_names(name, pool)
     message = f"no {what} named {name!r}"
+    stripped = name.strip(".")
+    names = sorted(known)
+    groups = sorted(
+        {
+            ".".join(parts[:end])
+            for parts in (n.split(".") for n in names)
+            for end in range(1, len(parts))
+        }
+    )
+    named = [g for g in groups if stripped and (g == stripped or g.endswith(f".{stripped}"))]
+    if named:  # a group, named whole or by its last part
+        members = ", ".join(n for n in names if n.startswith(f"{named[0]}."))
+        return f"{message}; the {named[0]}.* settings are: {members}"
+    group = stripped.rsplit(".", 1)[0] + "." if "." in stripped else ""
+    in_group = [n for n in names if group and n.startswith(group)]
+    near = near_names(stripped, in_group) or near_names(stripped, names)
     if near:
         return f"{message}; did you mean {' or '.join(near)}?"
-    if members:
-        return f"{message}; the {group}* settings are: {', '.join(members)}"
-    plain = [candidate for candidate in pool if "." not in candidate]
-    groups: dict[str, int] = {}
-    for candidate in pool:
-        if "." in candidate:
-            head = candidate.split(".", 1)[0]
-            groups[head] = groups.get(head, 0) + 1
-    listed = plain + [f"{head}.* ({count})" for head, count in sorted(groups.items())]
+    if in_group:
+        return f"{message}; the {group}* settings are: {', '.join(in_group)}"
+    sizes: dict[str, int] = {}
+    for head, _, rest in (n.partition(".") for n in names):
+        if rest:
+            sizes[head] = sizes.get(head, 0) + 1
+    listed = [n for n in names if "." not in n] + [f"{h}.* ({k})" for h, k in sizes.items()]
     return f"{message}; the settings are: {', '.join(listed)}"
 
 

@@ -158,33 +158,38 @@ def one_of(value: object, choices: Collection[str], *, what: str) -> str:
     return value
 
 
-def near_names(name: str, candidates: Collection[str], *, separator: str = ".") -> list[str]:
+def near_names(
+    name: str, candidates: Collection[str], *, separator: str = ".", most: int = 4
+) -> list[str]:
     """The ``candidates`` a misspelt or shortened ``name`` may have meant, nearest first.
 
     Names are paths of parts joined by ``separator`` (``merger.confidence.accept``,
     ``halmstad/E5_01``); a name is often given by its last part alone, or with a
-    typo in it. The candidates whose last part is ``name``'s, if any; else
-    those whose last part starts with it, then those whose last part is
-    spelled nearly as it is; at most four.
+    typo in it, so last parts are compared, whatever their case. The candidates
+    whose last part is ``name``'s, if any; else those whose last part is spelled
+    nearly as it is (:class:`difflib.SequenceMatcher` ratio of at least 0.75) or
+    starts with it (three letters or more), the nearest first; at most ``most``.
 
     >>> near_names("accept", ["confidence.accept", "robust.margin"])
     ['confidence.accept']
-    >>> near_names("E5_1", ["halmstad/E5_01", "aces3"], separator="/")
-    ['halmstad/E5_01']
+    >>> near_names("E5_1", ["halmstad/E5_01", "halmstad/E5_10", "aces3"], separator="/")
+    ['halmstad/E5_01', 'halmstad/E5_10']
     """
-    last = name.rsplit(separator, 1)[-1]
+    last = name.strip(separator).rsplit(separator, 1)[-1].lower()
+    if not last:
+        return []
     ends: dict[str, list[str]] = {}
     for candidate in sorted(candidates):
-        ends.setdefault(candidate.rsplit(separator, 1)[-1], []).append(candidate)
+        ends.setdefault(candidate.rsplit(separator, 1)[-1].lower(), []).append(candidate)
     if last in ends:
-        return ends[last][:4]  # the name's last part, whole: the group was left out
-    near = [end for end in ends if last and end.startswith(last)]
-    near += [
-        end
-        for end in difflib.get_close_matches(last, list(ends), n=4, cutoff=0.75)
-        if end not in near
-    ]
-    return [candidate for end in near for candidate in ends[end]][:4]
+        return ends[last][:most]  # the name's last part, whole: the group was left out
+    ranked = []
+    for end in ends:
+        ratio = difflib.SequenceMatcher(None, last, end).ratio()
+        if ratio >= 0.75 or (len(last) >= 3 and end.startswith(last)):
+            ranked.append((-ratio, end))
+    ranked.sort()
+    return [candidate for _, end in ranked for candidate in ends[end]][:most]
 
 
 def boolean(value: object, name: str) -> bool:

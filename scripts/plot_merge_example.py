@@ -74,8 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     axes[2].imshow(shade(fused.cells), origin="lower", cmap="gray", vmin=0, vmax=1)
     walls2 = np.column_stack(np.nonzero(pair.map2 >= merging.OCCUPIED_THRESHOLD)[::-1])
     to_fused = fused.to_fused[1]
-    if to_fused is None:
-        raise SystemExit(f"the merger did not link the example pair: {result.reason}")
+    assert to_fused is not None  # merge() places map 2 by the matrix it is given
     placed = merging.transforms.apply_transform(to_fused, walls2.astype(float))
     axes[2].scatter(placed[:, 0], placed[:, 1], s=0.2, c="tab:red", linewidths=0)
     axes[2].set_title(

@@ -61,6 +61,17 @@ def test_an_unknown_name_suggests_the_maps_meant(maps_path) -> None:
         catalog.find_map("coridor")  # a typo, and the folder left out
 
 
+def test_only_map_files_are_suggested(maps_path) -> None:
+    first, _ = maps_path
+    (first / "old").mkdir()
+    (first / "old" / "gone.yaml").symlink_to(first / "nowhere.yaml")  # a broken link
+    (first / "folder.yaml").mkdir()  # a folder, not a map
+    for name in ("old/gone", "folder"):
+        with pytest.raises(FileNotFoundError) as raised:
+            catalog.find_map(name)
+        assert "did you mean" not in str(raised.value)
+
+
 def test_paths_are_taken_as_they_are(maps_path, tmp_path: Path) -> None:
     assert catalog.find_map(tmp_path / "x.yaml") == tmp_path / "x.yaml"
     assert catalog.find_map("elsewhere/x.yaml") == Path("elsewhere/x.yaml")

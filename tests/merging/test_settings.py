@@ -77,7 +77,10 @@ TEAM_LIKE = {
         ("beams", "did you mean simulation.lidar.beams?"),
         ("lidar.beams", "did you mean simulation.lidar.beams?"),
         # the start of a name
-        ("confirm", "did you mean confirm_rotation_deg or confirmations?"),
+        ("confirm", "did you mean confirmations or confirm_rotation_deg?"),
+        # a trailing dot; a name in the wrong group is looked for in all
+        ("beams.", "did you mean simulation.lidar.beams?"),
+        ("merger.beams", "did you mean simulation.lidar.beams?"),
         # nothing near: the group's settings, or the groups with their sizes
         (
             "merger.confidence.nothing",
@@ -85,6 +88,9 @@ TEAM_LIKE = {
             "merger.confidence.mirror_margin",
         ),
         ("tracker", "the tracker.* settings are: tracker.keep_confidence"),
+        # a group by its last part
+        ("lidar", "the simulation.lidar.* settings are: simulation.lidar.beams"),
+        ("robust", "the merger.robust.* settings are: merger.robust.margin"),
         (
             "zzz",
             "the settings are: confirm_rotation_deg, confirmations, merge, merger.* (3), "

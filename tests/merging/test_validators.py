@@ -127,6 +127,9 @@ def test_as_generator_names_what_it_takes(rng: object, error: type) -> None:
         ("confidence.acept", ["confidence.accept"]),  # a typo
         ("mar", ["robust.margin", "robust.margin_cells"]),  # the start of the last part
         ("margin", ["robust.margin"]),  # a whole last part wins over longer ones
+        ("MARGIN", ["robust.margin"]),  # whatever the case
+        ("margin.", ["robust.margin"]),  # a trailing separator
+        ("ma", []),  # too short a start to suggest from
         ("zzz", []),
     ],
 )
@@ -135,8 +138,16 @@ def test_near_names_are_those_a_misspelt_name_may_mean(name: str, meant: list[st
     assert near_names(name, candidates) == meant
 
 
-def test_near_names_are_at_most_four_and_split_by_the_separator() -> None:
-    sessions = [f"halmstad/E5_{k:02d}" for k in range(1, 15)]
+def test_near_names_are_the_nearest_four_split_by_the_separator() -> None:
+    sessions = [f"halmstad/{floor}_{k:02d}" for floor in ("E5", "F5") for k in range(1, 15)]
     assert near_names("E5_03", sessions, separator="/") == ["halmstad/E5_03"]
-    assert len(near_names("E5_1", sessions, separator="/")) == 4
+    # A close spelling is not crowded out by names that merely start the same.
+    assert near_names("E5_1", sessions, separator="/") == [
+        "halmstad/E5_01",
+        "halmstad/E5_10",
+        "halmstad/E5_11",
+        "halmstad/E5_12",
+    ]
+    assert near_names("e5_01", sessions, separator="/") == ["halmstad/E5_01"]
+    assert near_names("E5_03", ["a/E5_03", "b/E5_03"], separator="/") == ["a/E5_03", "b/E5_03"]
     assert near_names("E5_03", sessions) == []  # no dots: the whole name is compared
