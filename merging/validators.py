@@ -167,7 +167,7 @@ def near_names(
     ``halmstad/E5_01``); a name is often given by its last part alone, or with a
     typo in it, so last parts are compared, whatever their case. The candidates
     whose last part is ``name``'s, if any; else those whose last part is spelled
-    nearly as it is (:class:`difflib.SequenceMatcher` ratio of at least 0.75) or
+    nearly as it is (``difflib.SequenceMatcher`` ratio of at least 0.75) or
     starts with it (three letters or more), the nearest first; at most ``most``.
 
     >>> near_names("accept", ["confidence.accept", "robust.margin"])
