@@ -875,7 +875,10 @@ class TomographicParams:
         Score by which a refined transform may verify worse than its start
         and still be kept: about one wall cell in fifty landing one cell
         farther out (verification tolerates a cell of misfit, so it cannot
-        rank finer than that).
+        rank finer than that). For the same reason a rival within it of the
+        placement's score ties it by the walls, and the second look does not
+        accept a placement over such a rival for the open space it shares
+        (:func:`merging.tomographic.search.outexplained_by_rival`).
     distinct_cells : float
         Two transforms moving map 2's cells further apart than this (cells
         RMS) are different answers; closer ones are one answer found twice.

@@ -229,10 +229,13 @@ def ranked_by_fit(
     about as many walls on walls but little floor on floor. One that lays
     *more* walls on walls than the placement, by the close score or by the
     robust way's tolerant one (a negative ``margin`` or ``tolerant_margin``),
-    is not set aside for sharing less space: the truth of two maps that
-    barely overlap is such a rival, and on generated floors, whose rooms
-    repeat, the second look accepted the room half a turn from it. Such a
-    look is refused (``fit_ranked_outexplained`` 1.0 in the evidence).
+    or as many to the finest the score ranks (a margin below
+    ``TomographicParams.keep_refined_margin``), is not set aside for sharing
+    less space: the truth of two maps that barely overlap is such a rival,
+    and on generated floors, whose rooms repeat, the second look accepted
+    the room half a turn from it, or a copy of a room beside it. Such a look
+    is refused (``fit_ranked_outexplained`` 1.0 in the evidence;
+    :func:`outexplained_by_rival`).
     """
     params = fit_ranking(maps.params)
     if params == maps.params:
@@ -240,7 +243,11 @@ def ranked_by_fit(
     clock = time.perf_counter()
     looked = look(SearchMaps(maps.first, maps.second, params, begun=maps))
     timings = {**refused.timings, "fit_ranked": time.perf_counter() - clock}
-    outexplained = looked is not None and looked.accepted and outexplained_by_rival(looked.evidence)
+    outexplained = (
+        looked is not None
+        and looked.accepted
+        and outexplained_by_rival(looked.evidence, tie=params.keep_refined_margin)
+    )
     if looked is not None and looked.accepted and not outexplained:
         evidence = {**looked.evidence, "ranked_by_fit": 1.0}
         return replace(looked, timings=timings, evidence=evidence)
@@ -251,11 +258,20 @@ def ranked_by_fit(
     return replace(refused, timings=timings, evidence=evidence)
 
 
-def outexplained_by_rival(evidence: dict[str, float]) -> bool:
-    """Whether a rival lays more walls on walls than the placement judged: a negative
+def outexplained_by_rival(evidence: dict[str, float], *, tie: float = 0.0) -> bool:
+    """Whether a rival lays as many walls on walls as the placement judged, or more: a
     ``margin`` (the close fit's runner-up) or ``tolerant_margin`` (the robust way's,
-    whose walls meet within a few cells) among the verdict's ``evidence``."""
-    return min(evidence.get("margin", 0.0), evidence.get("tolerant_margin", 0.0)) < 0.0
+    whose walls meet within a few cells) among the verdict's ``evidence`` below
+    ``tie``.
+
+    The second look passes ``TomographicParams.keep_refined_margin``, the finest
+    difference the score ranks (a cell of misfit is tolerated): a rival within it
+    ties the placement by the walls, and only the open space it shares set it
+    aside. On generated floors, whose rooms repeat, such a tie was a room's copy
+    18 m away (``floor1``, seed 44, 4 robots: robots 0 and 3 placed half a turn
+    from the truth, margin 0.002, confirmed by the next round).
+    """
+    return min(evidence.get("margin", tie), evidence.get("tolerant_margin", tie)) < tie
 
 
 def refine_from(

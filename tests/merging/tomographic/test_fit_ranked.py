@@ -100,6 +100,9 @@ def test_a_second_look_a_rival_outexplains_is_refused() -> None:
         ({"margin": 0.2}, True),  # the robust way was not asked: no tolerant rival
         ({"margin": -0.01, "tolerant_margin": 0.3}, False),  # the close fit's runner-up
         ({"margin": 0.16, "tolerant_margin": -0.01}, False),  # the robust way's
+        # a tie to the finest the score ranks (keep_refined_margin, 0.02)
+        ({"margin": 0.002, "tolerant_margin": 0.002}, False),
+        ({"margin": 0.025, "tolerant_margin": 0.025}, True),
     ):
         looked = MergeResult(placed, 0.85, True, "tomographic", evidence=dict(margins))
         result = search.ranked_by_fit(maps, refused, lambda _maps, looked=looked: looked)
