@@ -145,6 +145,10 @@ def test_explore_text_summary(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert status == 0
     assert "team coverage" in out and "merge rounds      2:" in out
     assert "pair" in out and "r0-r1" in out
+    # 12 steps link no maps: the merged map line names no first link (the README's
+    # default run, checked line for line, names one).
+    [merged] = [line for line in out.splitlines() if line.startswith("merged map")]
+    assert "agreement with the truth" in merged and "first link" not in merged
     assert f"recording: {record}" in out
 
 
