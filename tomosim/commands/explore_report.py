@@ -1,9 +1,9 @@
 """The summary ``tomosim explore`` prints, and the per-pair tables ``tomosim review`` shares.
 
 Both commands describe merge rounds the same way: per pair, how many of the
-rounds' estimates the merger accepted and how many were confirmed (and so
-used), and the rotation and translation errors of the accepted ones against
-the simulator's truth (:mod:`tomosim.team.quality`); and the exploration
+rounds' estimates the merger accepted and how many were confirmed (only
+confirmed ones link maps), and the rotation and translation errors of the
+accepted ones against the simulator's truth (:mod:`tomosim.team.quality`); and the exploration
 figures the same way (time to the target, path lengths, each robot's
 coverage, the overlap rate): from the episode's metrics for ``explore``, from
 the recording's ``team/`` series for ``review`` (:func:`recorded_figures`).
@@ -149,13 +149,14 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         rows = episode_rows(metrics)
         accepted = sum(1 for row in rows if row[1])
         confirmed = sum(1 for row in rows if row[2])
+        used = sum(1 for merge in metrics.merges for p in merge.pairs if p.used)
         last = metrics.merges[-1]
         merged = ", ".join(f"r{k}" for k in last.merged_robots)
         first = metrics.merge_stats().first_link_step
         since = "" if first is None else f"; first link at step {first}"
         lines += [
             f"{'merge rounds':<18}{len(metrics.merges)}: {accepted} of {len(rows)} pair "
-            f"estimates accepted, {confirmed} confirmed and used",
+            f"estimates accepted, {confirmed} confirmed, {used} used to link maps",
             f"{'merged map':<18}{merged}{since}; agreement with the truth {last.agreement:.3f}",
         ]
     drift = "; ".join(f"r{k} {h:.2f} deg {p:.2f} m" for k, (h, p) in enumerate(metrics.drift))

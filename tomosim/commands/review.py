@@ -2,9 +2,11 @@
 
 The recording is read with rerun's own reader (:func:`tomosim.recording.read_recording`).
 The command prints the merge-quality timeline (per merge round and pair: the
-confidence, whether the merger accepted and confirmed the estimate, and the
-errors of accepted estimates against the simulator's truth, with the merged
-map's agreement with the truth), then the final figures, and writes a PNG:
+confidence, whether the merger accepted and confirmed the estimate and whether
+the round's linking used it, and the errors of accepted estimates against the
+simulator's truth, with the merged map's agreement with the truth), then the
+final figures (with the step at which a round first linked two maps), and
+writes a PNG:
 the final merged map beside the ground truth, the error curves and the
 coverage curve (``--png``, default ``RUN_summary.png`` beside the recording).
 
@@ -58,6 +60,24 @@ def _number(value: float | None) -> float | None:
     return value if value is not None and math.isfinite(value) else None
 
 
+def _flag(run: RecordedRun, name: str, quantity: str, step: int) -> bool | None:
+    """Whether a pair's 0/1 ``quantity`` was set at ``step``; None when the recording does
+    not hold it (recordings written before ``used`` and ``dropped`` were logged)."""
+    series = run.pair(name, quantity)
+    if not len(series.steps):
+        return None
+    return (series.at(step) or 0.0) > 0
+
+
+def first_link_step(rounds: list[dict[str, Any]]) -> int | None:
+    """The first round of :func:`timeline` whose linking used a pair's estimate (None when
+    none did, or when the recording does not say which were used)."""
+    for merge in rounds:
+        if any(p.get("used") for p in merge["pairs"].values()):
+            return int(merge["step"])
+    return None
+
+
 def timeline(run: RecordedRun) -> list[dict[str, Any]]:
     """Per merge round: its step, the merged map's agreement and each pair's figures."""
     agreement = run.series.get(AGREEMENT)
@@ -72,6 +92,8 @@ def timeline(run: RecordedRun) -> list[dict[str, Any]]:
             entry: dict[str, Any] = {
                 "accepted": accepted > 0,
                 "confirmed": (run.pair(name, "confirmed").at(step) or 0.0) > 0,
+                "used": _flag(run, name, "used", step),
+                "dropped": _flag(run, name, "dropped", step),
                 "confidence": run.pair(name, "confidence").at(step),
                 "matching_index": _number(run.pair(name, "matching_index").at(step)),
             }
@@ -111,6 +133,7 @@ def describe_status(run: RecordedRun) -> str:
 def summary(run: RecordedRun) -> dict[str, Any]:
     """Everything the command prints, as plain values."""
     coverage = run.coverage
+    rounds = timeline(run)
     return {
         "recording": str(run.path),
         "finished": run.finished,
@@ -120,8 +143,17 @@ def summary(run: RecordedRun) -> dict[str, Any]:
         "steps": int(coverage.steps[-1]) if len(coverage.steps) else 0,
         "coverage": _number(coverage.last()),
         "exploration": recorded_figures(run),
-        "merges": timeline(run),
+        "merges": rounds,
+        "first_link_step": first_link_step(rounds),
     }
+
+
+def _used(pair: dict[str, Any]) -> str:
+    """A timeline row's ``used`` column: yes, no, "dropped" (confirmed but contradicting
+    the other links), or ``-`` when the recording does not say."""
+    if pair.get("used") is None:
+        return "-"
+    return "yes" if pair["used"] else "dropped" if pair.get("dropped") else "no"
 
 
 def render(report: dict[str, Any]) -> str:
@@ -133,7 +165,7 @@ def render(report: dict[str, Any]) -> str:
     lines += ["", "merge-quality timeline (errors of accepted estimates against the truth)"]
     header = (
         f"{'step':>6}  {'pair':<7}{'confidence':>11}{'accepted':>10}{'confirmed':>11}"
-        f"{'rotation [deg]':>16}{'translation [m]':>17}{'agreement':>11}"
+        f"{'used':>7}{'rotation [deg]':>16}{'translation [m]':>17}{'agreement':>11}"
     )
     lines.append(header)
     rows = []
@@ -147,6 +179,7 @@ def render(report: dict[str, Any]) -> str:
             lines.append(
                 f"{merge['step']:>6}  {name:<7}{p['confidence']:>11.3f}"
                 f"{'yes' if p['accepted'] else 'no':>10}{'yes' if p['confirmed'] else 'no':>11}"
+                f"{_used(p):>7}"
                 f"{'-' if rot is None else f'{rot:.2f}':>16}"
                 f"{'-' if shift is None else f'{shift:.3f}':>17}"
                 f"{'' if agree is None else f'{agree:.3f}':>11}"
@@ -172,6 +205,8 @@ def render(report: dict[str, Any]) -> str:
     if rows:
         accepted = sum(1 for r in rows if r[1])
         lines.append(f"{'merges':<16}{accepted} of {len(rows)} pair estimates accepted")
+        if report["first_link_step"] is not None:
+            lines.append(f"{'first link':<16}step {report['first_link_step']}")
         lines += ["", pair_table(summarise_pairs(rows))]
     return "\n".join(lines)
 

@@ -74,12 +74,16 @@ PAIR_QUANTITIES = (
     "confidence",
     "accepted",
     "confirmed",
+    "used",
+    "dropped",
     "matching_index",
     "rotation_error_deg",
     "translation_error_m",
     "shared_free_m2",
 )
-"""Logged per pair and round; the two errors only for estimates the merger accepted."""
+"""Logged per pair and round; the two errors only for estimates the merger accepted.
+``used`` (1.0) marks an estimate the round's linking took as an edge of its forest,
+``dropped`` a confirmed one it left out because it contradicts the others."""
 ERROR_QUANTITIES = ("rotation_error_deg", "translation_error_m")
 """The quantities logged only for accepted estimates."""
 

@@ -478,6 +478,8 @@ class Recorder:
                 "confidence": pair.confidence,
                 "accepted": float(pair.accepted),
                 "confirmed": float(pair.confirmed),
+                "used": float(pair.used),
+                "dropped": float(pair.dropped),
                 "matching_index": pair.matching_index,
                 "rotation_error_deg": pair.rotation_error_deg,
                 "translation_error_m": pair.translation_error_m,
@@ -537,6 +539,8 @@ def merge_line(merge: RoundQuality) -> str:
     parts = []
     for pair in merge.pairs:
         state = "confirmed" if pair.confirmed else "accepted" if pair.accepted else "rejected"
+        if pair.used or pair.dropped:
+            state += ", used" if pair.used else ", dropped"
         text = f"{pair.name} {state} ({pair.confidence:.2f}"
         if pair.accepted and math.isfinite(pair.rotation_error_deg):
             text += f", {pair.rotation_error_deg:.2f} deg, {pair.translation_error_m:.3f} m"

@@ -20,7 +20,8 @@ from merging import OccupancyGrid, save_map
 from tests.tomosim.commands.cli_support import assert_one_line_error, run
 from tests.tomosim.recording.test_recording import free_port, verify, write_foreign
 from tomosim.cli import main
-from tomosim.commands import progress
+from tomosim.commands import progress, review
+from tomosim.recording import read_recording
 
 SHORT_RUN = ["--robots", "2", "--steps", "60", "--merge-interval", "20", "--seed", "3"]
 """A run short enough for the suite: two robots on the default floor, merge rounds every 20
@@ -72,13 +73,14 @@ def test_review_reads_back_what_explore_reported(
         assert seen["agreement"] == ran["agreement"]
         for name, pair in ran["pairs"].items():
             back = seen["pairs"][name]
-            for key in ("accepted", "confirmed", "confidence", "matching_index"):
+            for key in ("accepted", "confirmed", "used", "dropped", "confidence", "matching_index"):
                 assert back[key] == pair[key], (name, key)
             if pair["accepted"]:
                 assert back["rotation_error_deg"] == pair["rotation_error_deg"]
                 assert back["translation_error_m"] == pair["translation_error_m"]
             else:
                 assert "rotation_error_deg" not in back
+    assert review["first_link_step"] == report["merge_stats"]["first_link_step"]
     figures = review["exploration"]
     assert figures["path_length_m"] == pytest.approx(report["path_length_m"])
     assert figures["overlap_rate"] == pytest.approx(report["overlap_rate"])
@@ -99,6 +101,39 @@ def test_review_prints_the_timeline_and_final_figures(
     assert f"{report['coverage']:.3f}" in out
     assert "r0-r1" in out and "summary image" not in out
     assert f"{report['path_length_m']:.1f} m" in out and "overlap rate" in out
+
+
+def test_review_names_the_first_round_that_used_a_link(explored: tuple[Path, dict]) -> None:
+    record, _ = explored
+    report = review.summary(read_recording(record))
+    for merge in report["merges"]:
+        for pair in merge["pairs"].values():
+            pair["used"] = pair["dropped"] = False
+    assert review.first_link_step(report["merges"]) is None
+    report["first_link_step"] = None
+    assert "first link" not in review.render(report)
+    linked = report["merges"][2]
+    next(iter(linked["pairs"].values()))["used"] = True
+    report["first_link_step"] = review.first_link_step(report["merges"])
+    assert report["first_link_step"] == linked["step"]
+    text = review.render(report)
+    assert f"{'first link':<16}step {linked['step']}" in text
+    row = next(line for line in text.splitlines() if line.startswith(f"{linked['step']:>6}  r0-r1"))
+    assert row.split()[5] == "yes"  # step, pair, confidence, accepted, confirmed, used
+
+
+def test_review_of_a_recording_without_the_linking_s_choice_says_it_does_not_know(
+    explored: tuple[Path, dict],
+) -> None:
+    record, _ = explored
+    report = review.summary(read_recording(record))
+    for merge in report["merges"]:
+        for pair in merge["pairs"].values():
+            pair["used"] = pair["dropped"] = None  # as read from an older recording
+    report["first_link_step"] = review.first_link_step(report["merges"])
+    assert report["first_link_step"] is None
+    rows = [line for line in review.render(report).splitlines() if " r0-r1 " in line]
+    assert rows and all(line.split()[5] == "-" for line in rows)
 
 
 def test_review_never_writes_its_image_over_the_recording_or_under_another_suffix(

@@ -274,6 +274,8 @@ def test_series_read_back_equal_what_was_logged(
         assert run.pair("r0-r1", "confidence").at(merge.step) == pair.confidence
         assert run.pair("r0-r1", "accepted").at(merge.step) == float(pair.accepted)
         assert run.pair("r0-r1", "confirmed").at(merge.step) == float(pair.confirmed)
+        assert run.pair("r0-r1", "used").at(merge.step) == float(pair.used)
+        assert run.pair("r0-r1", "dropped").at(merge.step) == float(pair.dropped)
         # nan (for estimates not accepted) reads back as nan
         np.testing.assert_equal(
             run.pair("r0-r1", "matching_index").at(merge.step), pair.matching_index
@@ -285,6 +287,12 @@ def test_series_read_back_equal_what_was_logged(
         assert run.series[AGREEMENT].at(merge.step) == merge.agreement
         assert run.series[ACCEPTED_PAIRS].at(merge.step) == len(merge.accepted)
     assert len(run.log) == len(merges)
+    # The run links the two maps, so the series of the linking's choice holds a 1, and the
+    # merge log says so.
+    assert any(pair.used for merge in merges for pair in merge.pairs)
+    for (step, line), merge in zip(run.log, merges, strict=True):
+        (pair,) = merge.pairs
+        assert step == merge.step and ("r0-r1 confirmed, used (" in line) == pair.used
 
 
 def test_grids_read_back_equal_what_was_logged(
