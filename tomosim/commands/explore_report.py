@@ -154,6 +154,8 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         merged = ", ".join(f"r{k}" for k in last.merged_robots)
         first = metrics.merge_stats().first_link_step
         since = "" if first is None else f"; first link at step {first}"
+        if first is not None and len(last.merged_robots) == 1:
+            since += ", none held at the last round"
         lines += [
             f"{'merge rounds':<18}{len(metrics.merges)}: {accepted} of {len(rows)} pair "
             f"estimates accepted, {confirmed} confirmed, {used} used to link maps",

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from tomosim.commands.explore_report import render_summary
 from tomosim.episode import EpisodeMetrics, MergeRound
 from tomosim.episode.exploration_tracker import ExplorationTracker, overlap_rate
 from tomosim.team import PairQuality, TeamConfig, TeamSession
@@ -115,3 +117,27 @@ def test_time_to_target_curves_and_efficiency() -> None:
     report = episode.as_dict()
     assert report["seconds_to_target"] == pytest.approx(0.3)
     assert report["path_length_m"] == 4.0 and len(report["robots"]) == 2
+
+
+def test_summary_says_when_no_link_held_at_the_end() -> None:
+    linked = pair(accepted=True, confirmed=True, used=True, errors=(0.3, 0.05))
+    lost = pair(accepted=False, confirmed=False, used=False, errors=(math.inf, math.inf))
+    settings = {
+        "coverage_target": 0.9,
+        "world": "floorplan seed=0",
+        "robots": 2,
+        "merge": True,
+        "merge_interval": 50,
+        "method": "tomographic",
+        "seed": 0,
+    }
+    for last, expected in (
+        (MergeRound(150, (linked,), (0, 1), 0.9, 0.1), "first link at step 100;"),
+        (MergeRound(150, (lost,), (0,), 0.9, 0.1), "first link at step 100, none held"),
+    ):
+        rounds = [MergeRound(100, (linked,), (0, 1), 0.9, 0.1), last]
+        episode = replace(metrics(rounds, [0.2, 0.5, 0.95]), settings=settings)
+        [merged] = [
+            line for line in render_summary(episode).splitlines() if line.startswith("merged")
+        ]
+        assert expected in merged
