@@ -32,6 +32,7 @@ from tomosim.team.session import TeamSession
 
 if TYPE_CHECKING:
     from tomosim.recording import Recorder
+    from tomosim.team.quality import RoundQuality
 
 STOP_TARGET = "coverage target reached"
 STOP_STEPS = "step limit reached"
@@ -39,6 +40,10 @@ STOP_FINISHED = "no reachable frontier left"
 
 Progress = Callable[[int, float], None]
 """``progress(step, team_coverage)``, called after every step."""
+MergeObserver = Callable[["TeamSession", "RoundQuality"], None]
+"""``on_merge(session, merge)``, called after every merge round with the session as the
+round left it (its grids, ``session.grids()``, are those the round merged) and the
+round scored against the truth."""
 
 
 def run_episode(
@@ -46,6 +51,7 @@ def run_episode(
     *,
     recorder: Recorder | None = None,
     progress: Progress | None = None,
+    on_merge: MergeObserver | None = None,
 ) -> EpisodeMetrics:
     """Run one episode (module docstring).
 
@@ -59,6 +65,9 @@ def run_episode(
         when the episode fails, so that the file keeps what was logged.
     progress : callable, optional
         ``progress(step, team_coverage)`` after every step.
+    on_merge : callable, optional
+        ``on_merge(session, merge)`` after every merge round (:data:`MergeObserver`),
+        to study the rounds beyond what the metrics keep.
 
     Raises
     ------
@@ -78,7 +87,7 @@ def run_episode(
     try:
         if recorder is not None:
             recorder.log_start(session, settings)
-        tracker, merges, reason = _explore(session, config, recorder, progress)
+        tracker, merges, reason = _explore(session, config, recorder, progress, on_merge)
         if recorder is not None:
             recorder.log_end(session, reason)
     finally:
@@ -107,6 +116,7 @@ def _explore(
     config: EpisodeConfig,
     recorder: Recorder | None,
     progress: Progress | None,
+    on_merge: MergeObserver | None,
 ) -> tuple[ExplorationTracker, list[MergeRound], str]:
     """The episode's loop: the tracked figures, the merge rounds, the stop reason."""
     explorer = TeamExplorer(session.count, policy=config.policy)
@@ -127,6 +137,8 @@ def _explore(
         figures = tracker.update(session)
         if merge is not None:
             merges.append(MergeRound.of(merge, session))
+            if on_merge is not None:
+                on_merge(session, merge)
         if recorder is not None:
             recorder.log_step(session, merge)
             recorder.log_figures(session, figures)

@@ -1,0 +1,64 @@
+"""``scripts/exploration_precision.py``: accepted estimates against the truth and the best fit."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pytest
+
+from tests.support import load_script
+
+
+@pytest.mark.slow
+def test_rows_hold_the_estimate_the_truth_and_the_fit_between_them(tmp_path: Path) -> None:
+    precision = load_script("exploration_precision")
+    # Four robots on the default floor link a first pair by step 40 (seed 0).
+    argv = ["--worlds", "0", "--seeds", "0", "--steps", "60", "--out", str(tmp_path)]
+    assert precision.main(argv) == 0
+    with (tmp_path / "precision.csv").open(encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert rows and {r["world"] for r in rows} == {"floor0"}
+    for row in rows:
+        assert int(row["step"]) <= 60 and row["fit_accepted"] in {"0", "1"}
+        # Three placements of one frame: the distances between them obey the triangle rule.
+        for kind, unit in (("rotation", "deg"), ("translation", "m")):
+            est = float(row[f"{kind}_error_{unit}"])
+            fit = float(row[f"fit_{kind}_error_{unit}"])
+            between = float(row[f"from_fit_{kind}_{unit}"])
+            assert all(math.isfinite(v) for v in (est, fit, between))
+            assert est <= fit + between + 1e-9 and between <= est + fit + 1e-9
+    report = (tmp_path / "precision.md").read_text(encoding="utf-8")
+    assert f"{len(rows)} accepted estimates" in report
+    assert "| estimate against the best fit |" in report
+
+
+def test_the_summary_leaves_false_matches_out_and_says_so() -> None:
+    precision = load_script("exploration_precision")
+    right = dict.fromkeys(precision.COLUMNS, 0.1) | {"fit_accepted": 1, "fit_quality": 0.05}
+    false = right | {"rotation_error_deg": 179.0}
+    report = precision.summarise([right, false])
+    assert report.startswith("2 accepted estimates, 1 of them false matches")
+    assert "| estimate against the truth | 0.100 |" in report
+    assert "accepts 100.0% of the best fits" in report
+    assert "at least as well as the best fit from the truth in 100.0% (" in report
+    assert "| estimate against the truth | - |" in precision.summarise([false])
+
+
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["--robots", "1"], "at least 2 robots"),
+        (["--steps", "0"], "at least 1"),
+        (["--team", "merger.confidence.acept=0.7"], "did you mean merger.confidence.accept"),
+        (["--team", "merger.confidence.accept"], "--team takes NAME=VALUE"),
+    ],
+)
+def test_bad_arguments_are_refused_with_what_to_do(
+    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    precision = load_script("exploration_precision")
+    with pytest.raises(SystemExit) as stopped:
+        precision.parse_args(argv)
+    assert stopped.value.code == 2 and said in capsys.readouterr().err
