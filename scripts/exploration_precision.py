@@ -65,11 +65,16 @@ COLUMNS = (
     "fit_accepted",
     "quality",
     "fit_quality",
+    "walls_meeting",
+    "fit_walls_meeting",
 )
 """The rows' columns: the estimate against the truth, the best fit from the truth
 against the truth (``fit_``), the estimate against that fit (``from_fit_``), and how well
-each placement lays the two grids' walls on each other (``quality``, ``fit_quality``: the
-verification's fit, at most 1; :attr:`merging.evidence.verify.Verification.quality`)."""
+each placement lays the two grids' walls on each other: ``quality`` (the verification's
+fit, a fraction of the walls that land on known cells, at most 1;
+:attr:`merging.evidence.verify.Verification.quality`) and ``walls_meeting`` (how many
+wall cells land on walls, :attr:`~merging.evidence.verify.Verification.agreeing`), with
+``fit_`` for the best fit's."""
 FIGURES = (
     ("estimate against the truth", "rotation_error_deg", "translation_error_m"),
     (
@@ -111,22 +116,24 @@ def compare_round(session: TeamSession, merge: RoundQuality) -> list[dict[str, A
                 "from_fit_rotation_deg": off_rotation,
                 "from_fit_translation_m": off_translation,
                 "fit_accepted": int(fit.accepted),
-                "quality": placement_quality(first, second, estimate.matrix),
-                "fit_quality": placement_quality(first, second, fit.matrix),
+                **placement_fit(first, second, estimate.matrix, ""),
+                **placement_fit(first, second, fit.matrix, "fit_"),
             }
         )
     return rows
 
 
-def placement_quality(
-    first: OccupancyGrid, second: OccupancyGrid, matrix: NDArray[np.float64]
-) -> float:
+def placement_fit(
+    first: OccupancyGrid, second: OccupancyGrid, matrix: NDArray[np.float64], prefix: str
+) -> dict[str, float]:
     """How well ``matrix`` (grid ``second``'s cells to ``first``'s) lays the grids' walls on
-    each other: the default verification's fit, its agreement less its weighted conflict
-    (:attr:`merging.evidence.verify.Verification.quality`)."""
+    each other, by the default verification: ``{prefix}quality``, its fit (agreement less
+    weighted conflict, a fraction), and ``{prefix}walls_meeting``, the wall cells that
+    land on walls (both ways round)."""
     params = DEFAULT_PARAMS.verify
     one, two = (prepare_map(grid.data, params=params) for grid in (first, second))
-    return float(verify(one, two, matrix, params=params).quality)
+    check = verify(one, two, matrix, params=params)
+    return {f"{prefix}quality": float(check.quality), f"{prefix}walls_meeting": check.agreeing}
 
 
 def collect(found: list[dict[str, Any]], session: TeamSession, merge: RoundQuality) -> None:
@@ -166,11 +173,20 @@ def summarise(rows: Sequence[dict[str, Any]]) -> str:
         accepted = sum(int(row["fit_accepted"]) for row in right) / len(right)
         lines += ["", f"the default verdict accepts {accepted:.1%} of the best fits from the truth"]
         gain = np.array([float(row["quality"]) - float(row["fit_quality"]) for row in right])
-        lines.append(
-            f"the estimate fits its grids at least as well as the best fit from the truth in "
-            f"{np.mean(gain >= 0):.1%} (quality minus the fit's: median {np.median(gain):.4f}, "
-            f"10th percentile {np.percentile(gain, 10):.4f})"
+        walls = np.array(
+            [
+                float(row["walls_meeting"]) / max(float(row["fit_walls_meeting"]), 1.0)
+                for row in right
+            ]
         )
+        lines += [
+            f"the estimate's fit (a fraction) is at least the best fit's in "
+            f"{np.mean(gain >= 0):.1%} (difference: median {np.median(gain):.4f}, 10th "
+            f"percentile {np.percentile(gain, 10):.4f})",
+            f"the estimate lays at least as many walls on walls as the best fit in "
+            f"{np.mean(walls >= 1):.1%} (ratio: median {np.median(walls):.2f}, 10th "
+            f"percentile {np.percentile(walls, 10):.2f})",
+        ]
     return "\n".join(lines)
 
 

@@ -37,12 +37,14 @@ def test_rows_hold_the_estimate_the_truth_and_the_fit_between_them(tmp_path: Pat
 def test_the_summary_leaves_false_matches_out_and_says_so() -> None:
     precision = load_script("exploration_precision")
     right = dict.fromkeys(precision.COLUMNS, 0.1) | {"fit_accepted": 1, "fit_quality": 0.05}
+    right |= {"walls_meeting": 300.0, "fit_walls_meeting": 100.0}
     false = right | {"rotation_error_deg": 179.0}
     report = precision.summarise([right, false])
     assert report.startswith("2 accepted estimates, 1 of them false matches")
     assert "| estimate against the truth | 0.100 |" in report
     assert "accepts 100.0% of the best fits" in report
-    assert "at least as well as the best fit from the truth in 100.0% (" in report
+    assert "fit (a fraction) is at least the best fit's in 100.0% (" in report
+    assert "as many walls on walls as the best fit in 100.0% (ratio: median 3.00" in report
     assert "| estimate against the truth | - |" in precision.summarise([false])
 
 
