@@ -4,18 +4,22 @@ Exploration on generated floors, with the team's default settings; after every
 merge round, each accepted pair estimate is compared with the truth (the
 relative pose of the two robots' true start frames) and with the *best fit
 from the truth*: the default method's refinement of the two grids started at
-the truth (:func:`merging.tomographic.search.refine_from`), the rigid
-placement nearest the truth at which those grids fit best. Both grids were
-drawn at drifting odometry poses, so that fit is off the truth by what the
-maps themselves are off; an estimate as far from the truth as the fit is at
-the limit of its data, and one close to the fit cannot be made more precise
-by a better search.
+the truth (:func:`merging.tomographic.search.refine_from`): the rigid
+placement near the truth at which those grids fit best, or the truth itself
+when the refinement finds nothing that verifies better within its reach.
+Both grids were drawn at drifting odometry poses, so that fit is off the
+truth by what the maps themselves are off; an estimate at the fit is at the
+limit of its data, and cannot be made more precise by a better search.
 
 Per accepted estimate (a false match, beyond 5 degrees or 1 m of the truth,
 is counted apart) the rows give the rotation and translation errors of the
 estimate against the truth, of the fit against the truth, and of the
-estimate against the fit; the summary gives their medians and 90th
-percentiles, and the share of the fits the default verdict accepts.
+estimate against the fit, and how well each of the two lays the grids'
+walls on each other (:data:`COLUMNS`); the summary gives the errors'
+medians and 90th percentiles, the share of the fits the default verdict
+accepts, and how often the estimate fits at least as well as the fit. Where
+the fit stayed at the truth, compare the walls each lays on walls: on drifted
+maps the estimate may meet more of them a few centimetres away.
 
 Usage::
 
