@@ -41,8 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.evidence.verify import prepare_map, verify
-from merging.grid import OccupancyGrid
+from merging.evidence.verify import PreparedMap, prepare_map, verify
 from merging.params import DEFAULT_PARAMS
 from merging.settings import parse_assignments
 from merging.tomographic.search import refine_from
@@ -106,6 +105,8 @@ def compare_round(session: TeamSession, merge: RoundQuality) -> list[dict[str, A
             p.result for p in merge.merge.pairs if (p.first, p.second) == (pair.first, pair.second)
         )
         assert fit.matrix_metres is not None and estimate.matrix_metres is not None
+        params = DEFAULT_PARAMS.verify
+        prepared = (prepare_map(first.data, params=params), prepare_map(second.data, params=params))
         fit_rotation, fit_translation = frame_errors(fit.matrix_metres, truth)
         off_rotation, off_translation = frame_errors(estimate.matrix_metres, fit.matrix_metres)
         rows.append(
@@ -120,23 +121,21 @@ def compare_round(session: TeamSession, merge: RoundQuality) -> list[dict[str, A
                 "from_fit_rotation_deg": off_rotation,
                 "from_fit_translation_m": off_translation,
                 "fit_accepted": int(fit.accepted),
-                **placement_fit(first, second, estimate.matrix, ""),
-                **placement_fit(first, second, fit.matrix, "fit_"),
+                **placement_fit(prepared, estimate.matrix, ""),
+                **placement_fit(prepared, fit.matrix, "fit_"),
             }
         )
     return rows
 
 
 def placement_fit(
-    first: OccupancyGrid, second: OccupancyGrid, matrix: NDArray[np.float64], prefix: str
+    prepared: tuple[PreparedMap, PreparedMap], matrix: NDArray[np.float64], prefix: str
 ) -> dict[str, float]:
-    """How well ``matrix`` (grid ``second``'s cells to ``first``'s) lays the grids' walls on
-    each other, by the default verification: ``{prefix}quality``, its fit (agreement less
-    weighted conflict, a fraction), and ``{prefix}walls_meeting``, the wall cells that
-    land on walls (both ways round)."""
-    params = DEFAULT_PARAMS.verify
-    one, two = (prepare_map(grid.data, params=params) for grid in (first, second))
-    check = verify(one, two, matrix, params=params)
+    """How well ``matrix`` (the second prepared grid's cells to the first's) lays the
+    grids' walls on each other, by the default verification: ``{prefix}quality``, its fit
+    (agreement less weighted conflict, a fraction), and ``{prefix}walls_meeting``, the
+    wall cells that land on walls (both ways round)."""
+    check = verify(*prepared, matrix, params=DEFAULT_PARAMS.verify)
     return {f"{prefix}quality": float(check.quality), f"{prefix}walls_meeting": check.agreeing}
 
 
