@@ -18,9 +18,8 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from merging.grid import FREE_THRESHOLD, OCCUPIED_THRESHOLD
+from tomosim.kernels.planning import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL
 
-UNKNOWN_CELL, FREE_CELL, OCCUPIED_CELL = 0, 1, 2
-"""Cell states of a planning grid."""
 FOUR_CONNECTED = ndimage.generate_binary_structure(2, 1)
 EIGHT_CONNECTED = ndimage.generate_binary_structure(2, 2)
 
@@ -37,7 +36,9 @@ def coarsen(
     A coarse cell is *occupied* if any of its cells is ``>= occupied_from``,
     else *free* if any is known and ``< free_below``, else *unknown*. Edges
     are padded with unknown cells. The defaults are ``map_server``'s
-    thresholds (occupied >= 65, free <= 19).
+    thresholds (occupied >= 65, free <= 19). The planner runs the compiled
+    :func:`tomosim.kernels.planning.block_states`, which the tests compare
+    with this.
 
     Returns
     -------

@@ -1,9 +1,12 @@
 """Paths on known free space: an inflated planning grid and a wavefront over it.
 
-1. The map is coarsened to the planning resolution (:func:`coarsen`).
-2. Cells closer to an occupied cell than the robot's radius plus a margin are
-   blocked (*inflation*); unknown cells are blocked too, so paths stay on
-   space the robot has seen free.
+1. The map is coarsened to the planning resolution
+   (:func:`~tomosim.exploration.frontiers.coarsen`, compiled as
+   :func:`~tomosim.kernels.planning.block_states`).
+2. Cells closer to an occupied cell than the robot's radius plus a margin
+   (:func:`~tomosim.kernels.planning.distances_to_walls`) are blocked
+   (*inflation*); unknown cells are blocked too, so paths stay on space the
+   robot has seen free.
 3. Each passable cell costs 1 per cell crossed, plus a penalty that grows
    towards walls, so that paths keep to the middle of corridors and doors.
 4. A wavefront (Dijkstra on the 8-connected grid, :class:`skimage.graph.MCP_Geometric`)
@@ -17,12 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from merging.grid import OCCUPIED_THRESHOLD, OccupancyGrid
 from merging.validators import real_number
-from tomosim.exploration.frontiers import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL, coarsen
+from tomosim.exploration.frontiers import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL
+from tomosim.kernels.planning import block_states, distances_to_walls
 from tomosim.robot import ROBOT_RADIUS_M
 
 CROP_MARGIN_CELLS = 2
@@ -123,16 +126,15 @@ def _inside(cells: NDArray[np.intp], shape: tuple[int, ...]) -> NDArray[np.bool_
 def planning_grid(grid: OccupancyGrid, config: PlannerConfig) -> PlanningGrid:
     """Steps 1-3 of the module docstring for ``grid`` (any origin, yaw included)."""
     factor = max(1, round(config.resolution / grid.resolution))
-    state = coarsen(
-        grid.data, factor, free_below=config.free_below, occupied_from=config.occupied_from
-    )
+    state = block_states(grid.data, factor, config.free_below, config.occupied_from)
     coarse = grid.resolution * factor
     fine_from_coarse = np.array(
         [[factor, 0.0, 0.5 * (factor - 1)], [0.0, factor, 0.5 * (factor - 1)], [0.0, 0.0, 1.0]]
     )
     occupied = state == OCCUPIED_CELL
     if np.any(occupied):
-        clearance = ndimage.distance_transform_edt(~occupied) * coarse
+        # scipy.ndimage.distance_transform_edt(~occupied), compiled (the tests compare them).
+        clearance = distances_to_walls(occupied) * coarse
     else:
         clearance = np.full(state.shape, np.inf)
     blocked = (state != FREE_CELL) | (clearance < config.robot_radius + config.inflation_margin)
@@ -155,13 +157,17 @@ class Wavefront:
     def __init__(self, planning: PlanningGrid, start: tuple[int, int]) -> None:
         rows, cols = planning.state.shape
         x, y = start
-        known_rows, known_cols = np.nonzero(planning.state != UNKNOWN_CELL)
+        # The rows and columns holding a known cell: the box np.nonzero would give,
+        # without listing every cell.
+        known = planning.state != UNKNOWN_CELL
+        known_rows = np.flatnonzero(known.any(axis=1))
+        known_cols = np.flatnonzero(known.any(axis=0))
         if len(known_rows) == 0:
             known_rows, known_cols = np.array([y]), np.array([x])
-        r0 = max(0, min(int(known_rows.min()), y) - CROP_MARGIN_CELLS)
-        c0 = max(0, min(int(known_cols.min()), x) - CROP_MARGIN_CELLS)
-        r1 = min(rows, max(int(known_rows.max()), y) + CROP_MARGIN_CELLS + 1)
-        c1 = min(cols, max(int(known_cols.max()), x) + CROP_MARGIN_CELLS + 1)
+        r0 = max(0, min(int(known_rows[0]), y) - CROP_MARGIN_CELLS)
+        c0 = max(0, min(int(known_cols[0]), x) - CROP_MARGIN_CELLS)
+        r1 = min(rows, max(int(known_rows[-1]), y) + CROP_MARGIN_CELLS + 1)
+        c1 = min(cols, max(int(known_cols[-1]), x) + CROP_MARGIN_CELLS + 1)
         self.offset = (c0, r0)
         self.shape = (rows, cols)
         costs = planning.costs[r0:r1, c0:c1]

@@ -359,3 +359,45 @@ def test_shared_free_kernel_matches_the_numpy_count(seed: int) -> None:
     # Centres landing exactly half way between cells round to the even one, as np.rint.
     half = pose_matrix((10.5, 3.5, 0.0))
     assert shared_free(first, second, half) == shared_free_numpy(first, second, half)
+
+
+@pytest.mark.parametrize("factor", [1, 2, 3, 5])
+def test_block_states_kernel_matches_the_numpy_coarsening(factor: int) -> None:
+    from tomosim.exploration.frontiers import coarsen
+    from tomosim.kernels.planning import block_states
+
+    generator = np.random.default_rng(factor)
+    codes = np.array([UNKNOWN, 0, 10, 19, 20, 40, 64, 65, 100], dtype=np.int8)
+    # Shapes that are and are not whole blocks, and a grid of mostly one state: blocks
+    # of unknown cells only, of free cells only and of a lone wall cell among free ones.
+    grids = [generator.choice(codes, size=shape) for shape in ((31, 47), (30, 45), (1, 7))]
+    sparse = np.full((40, 50), UNKNOWN, dtype=np.int8)
+    sparse[10:30, 5:45] = 0
+    sparse[17, 20] = 100
+    grids.append(sparse)
+    for cells in grids:
+        for free_below, occupied_from in ((20, 65), (50, 50), (70, 30)):
+            expected = coarsen(cells, factor, free_below=free_below, occupied_from=occupied_from)
+            found = block_states(cells, factor, free_below, occupied_from)
+            assert found.dtype == expected.dtype
+            np.testing.assert_array_equal(found, expected)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_wall_distances_kernel_matches_scipy_to_the_bit(seed: int) -> None:
+    from scipy import ndimage
+
+    from tomosim.kernels.planning import distances_to_walls
+
+    generator = np.random.default_rng(seed)
+    # Dense and sparse walls, one wall cell, a single row and a single column, and grids
+    # whose columns mostly hold no wall (their cells are reached along the rows only).
+    masks = [generator.random((37, 53)) < share for share in (0.5, 0.05, 0.002)]
+    lone = np.zeros((29, 41), dtype=bool)
+    lone[generator.integers(29), generator.integers(41)] = True
+    masks += [lone, generator.random((1, 30)) < 0.2, generator.random((30, 1)) < 0.2]
+    for occupied in masks:
+        if not occupied.any():
+            occupied[0, 0] = True
+        expected = ndimage.distance_transform_edt(~occupied)
+        assert distances_to_walls(occupied).tobytes() == expected.tobytes()
