@@ -10,7 +10,11 @@ by the process's CPU time (``cpu``, steadier when other work loads the machine).
 
 A second table times one scan with the compiled caster the lidar uses, the
 numpy caster it was written from, and pymunk's segment queries, the oracle
-the tests compare both with. With ``--explore``, a third
+the tests compare both with. A third times one plan of the frontier policy on
+the map one robot has drawn after ``--plan-after`` steps: the compiled
+planning kernels against the library calls they give to the bit (coarsening
+to planning cells, the distance to the nearest wall), then the whole
+planning grid and the wavefront over it. With ``--explore``, a fourth
 table follows one robot under the frontier policy on generated floors and
 reports the fraction of the free space it has mapped against the steps taken.
 
@@ -25,12 +29,16 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+import timeit
 
 import numpy as np
+from scipy import ndimage
 
 from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 from tomosim.evaluation import coverage
-from tomosim.exploration import FrontierPolicy
+from tomosim.exploration import FrontierPolicy, PlannerConfig, coarsen
+from tomosim.exploration.planning import OCCUPIED_CELL, Wavefront, planning_grid
+from tomosim.kernels.planning import block_states, distances_to_walls
 from tomosim.lidar import LidarConfig
 from tomosim.lidar_oracle import cast_pymunk
 from tomosim.ray_geometry import cast_segments, cull_segments, segment_bounds
@@ -105,6 +113,41 @@ def bench_lidar(scans: int, beams: int) -> tuple[float, float, float]:
     return kernel_us, numpy_us, pymunk_us
 
 
+def bench_plan(after: int, repeats: int) -> tuple[tuple[int, int], dict[str, float]]:
+    """Median milliseconds of each stage of one plan on the map one robot has drawn
+    after ``after`` steps of exploring, and the planning grid's shape."""
+    world = generate_floorplan(WORLD_SEED)
+    sim = Simulation(world, robots=1, rng=0)
+    policy = FrontierPolicy()
+    for _ in range(after):
+        command = policy.act(sim.odometry_poses[0], sim.grid(0), scan=sim.scans[0])
+        sim.step(command[None])
+    grid, config = sim.grid(0), PlannerConfig()
+    factor = max(1, round(config.resolution / grid.resolution))
+    planning = planning_grid(grid, config)
+    occupied = planning.state == OCCUPIED_CELL
+    # The robot's own cell may lie within the inflation; any passable cell starts a wavefront.
+    rows, cols = np.nonzero(np.isfinite(planning.costs))
+    start = (int(cols[len(cols) // 2]), int(rows[len(rows) // 2]))
+    stages = {
+        "coarsen (numpy)": lambda: coarsen(
+            grid.data, factor, free_below=config.free_below, occupied_from=config.occupied_from
+        ),
+        "block_states (compiled)": lambda: block_states(
+            grid.data, factor, config.free_below, config.occupied_from
+        ),
+        "distance_transform_edt (scipy)": lambda: ndimage.distance_transform_edt(~occupied),
+        "distances_to_walls (compiled)": lambda: distances_to_walls(occupied),
+        "planning_grid": lambda: planning_grid(grid, config),
+        "Wavefront": lambda: Wavefront(planning, start),
+    }
+    medians = {}
+    for name, run in stages.items():
+        run()  # compiled already, or compiled now: not timed
+        medians[name] = 1000 * float(np.median(timeit.repeat(run, number=1, repeat=repeats)))
+    return planning.state.shape, medians
+
+
 def explore(seed: int, budget: int, checkpoints: list[int]) -> tuple[list[float], int]:
     """Coverage at each checkpoint of one robot exploring floor ``seed``, and the
     step at which the policy finished (``budget`` if it did not)."""
@@ -131,6 +174,10 @@ def main() -> None:
     parser.add_argument("--repeats", type=positive_int, default=5, help="runs per robot count")
     parser.add_argument("--beams", type=positive_int, default=360)
     parser.add_argument("--scans", type=positive_int, default=200, help="scans for the lidar table")
+    parser.add_argument(
+        "--plan-after", type=positive_int, default=600, help="steps explored before the plan table"
+    )
+    parser.add_argument("--plans", type=positive_int, default=50, help="timings per plan stage")
     parser.add_argument(
         "--explore",
         type=non_negative_int,
@@ -161,6 +208,13 @@ def main() -> None:
     print(f"  compiled kernel (tomosim.kernels)  {kernel_us:8.0f} us")
     print(f"  numpy angular-sweep caster         {numpy_us:8.0f} us")
     print(f"  pymunk segment_query_first         {pymunk_us:8.0f} us")
+    shape, medians = bench_plan(args.plan_after, args.plans)
+    print(
+        f"\none plan after {args.plan_after} steps of one robot, {shape[0]} x {shape[1]} "
+        f"planning cells, median of {args.plans}:"
+    )
+    for name, milliseconds in medians.items():
+        print(f"  {name:<34} {milliseconds:8.2f} ms")
     if args.explore:
         checkpoints = [args.budget * k // 6 for k in range(1, 7)]
         print("\nexploration, one robot, default 30 m x 20 m floor: fraction of free space mapped")
