@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import fft, signal
+from scipy import fft
 
 from merging.api import register_method
 from merging.baselines.common import check_no_options, check_positive, verdict
@@ -120,6 +120,10 @@ def spectrum_shift(
     one-cell histograms, the *x* or *y spectra* of the original along an axis;
     ``d`` maximises their cross-correlation, so ``s_2 + d ≈ s_1``.
     """
+    # Imported here, not by `import merging`, which registers this method: scipy.signal
+    # brings scipy.stats, a good part of the 0.4 s the features' imports cost too.
+    from scipy import signal
+
     s1 = np.rint(first @ normal).astype(np.int64)
     s2 = np.rint(second @ normal).astype(np.int64)
     low1, low2 = int(s1.min()), int(s2.min())

@@ -288,3 +288,17 @@ def test_ros_pipeline_refuses_a_grid_one_cell_wide(opencv, method: str, shape) -
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "at least 2 cells a side" in run.stdout
+
+
+def test_importing_merging_leaves_the_feature_and_signal_libraries_unloaded() -> None:
+    # Every program that imports merging (the command, the search worker) would pay
+    # for them: `import merging` took 1.1 s with them and takes 0.7 s without. The
+    # baselines needing them import them when they run.
+    script = (
+        "import sys, merging; "
+        "print(sorted(m for m in ('skimage.feature', 'scipy.signal') if m in sys.modules))"
+    )
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == "[]"
+    assert "sift" in merging.available_methods()
