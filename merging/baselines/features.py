@@ -60,9 +60,9 @@ from merging.result import MergeResult
 if TYPE_CHECKING:
     from skimage.feature import ORB, SIFT
 
-# scikit-image's feature module is imported where it is used: it brings scipy.stats,
-# and with it (and scipy.signal, see spectral.py) `import merging`, which registers
-# these methods, took 1.1 s instead of 0.7 s in every program, most never running them.
+# scikit-image's feature module is imported where it is used, not above: with it (it
+# brings scipy.stats) and scipy.signal (spectral.py), `import merging`, which registers
+# these methods, took 1.1 s instead of 0.7 s in every program, though few run them.
 
 MAX_KEYPOINTS = 500
 """Keypoints kept per map by ORB and the corner detectors (the strongest):
