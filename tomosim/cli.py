@@ -25,7 +25,7 @@ COMMANDS = ("explore", "review", "merge", "sweep", "maps")
 """Command modules under :mod:`tomosim.commands`, in the order ``tomosim --help`` lists
 them. They import the simulator, the merger and the viewer's SDK, seconds of work, so
 they are imported inside :func:`main`, where a Ctrl-C meanwhile stops as at any other
-instant."""
+instant, and only the command named is imported (:func:`build_parser`)."""
 PROG = "tomosim"
 """The program name in messages."""
 EXIT_FAILURE, EXIT_USAGE = 1, 2
@@ -42,8 +42,16 @@ def package_version() -> str:
         return "unknown (not installed)"
 
 
-def build_parser() -> Parser:
-    """The argument parser with one subparser per command module."""
+def build_parser(arguments: Sequence[str] | None = None) -> Parser:
+    """The argument parser with one subparser per command module.
+
+    Given the command line's ``arguments``, only the module of the command
+    they name is imported and its options added; the other commands are
+    known by name alone (a misspelt one is still refused with the list).
+    ``tomosim merge`` and ``tomosim maps`` then start without the simulator
+    and the viewer's SDK, a second sooner. With no command named (``tomosim
+    --help``), or no ``arguments``, every module is imported.
+    """
     parser = Parser(
         prog=PROG,
         description="Multi-robot exploration testbed with tomographic occupancy-grid merging.",
@@ -51,12 +59,26 @@ def build_parser() -> Parser:
     parser.add_argument("--version", action="version", version=f"{PROG} {package_version()}")
     commands = parser.add_subparsers(title="commands", dest="command", metavar="COMMAND")
     commands.required = True
+    named = _named_command(arguments)
     for name in COMMANDS:
+        if named is not None and name != named:
+            commands.add_parser(name)
+            continue
         module: ModuleType = importlib.import_module(f"tomosim.commands.{name}")
         sub = commands.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(sub)
         sub.set_defaults(run=module.run)
     return parser
+
+
+def _named_command(arguments: Sequence[str] | None) -> str | None:
+    """The command ``arguments`` name (their first word not starting with ``-``: the
+    program's own options take no value), or None when they name none of
+    :data:`COMMANDS`."""
+    for word in arguments or ():
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
 
 
 def _silence_stdout() -> None:
@@ -72,7 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line on ``argv`` (``sys.argv[1:]`` when None) and return the exit status."""
     arguments = list(sys.argv[1:] if argv is None else argv)
     try:
-        args = build_parser().parse_args(arguments)
+        args = build_parser(arguments).parse_args(arguments)
         with stop_signals_handled():
             return int(args.run(args))
     except UsageError as exc:

@@ -345,3 +345,28 @@ def test_help_lists_methods_and_version(capsys: pytest.CaptureFixture[str]) -> N
     assert "available_methods()" not in out
     status, out, _ = run(["--version"], capsys)
     assert status == 0 and out.startswith("tomosim ") and out.strip() != "tomosim"
+
+
+def test_a_command_imports_its_own_module_alone() -> None:
+    import subprocess
+    import sys
+
+    # `tomosim maps` needs neither the simulator nor the viewer's SDK: only the module
+    # of the command named is imported (a second sooner on the command line).
+    script = (
+        "import sys; from tomosim.cli import main; status = main(['maps', '--help']); "
+        "print(status, 'rerun' in sys.modules, 'tomosim.commands.explore' in sys.modules)"
+    )
+    process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert process.returncode == 0, process.stderr[-2000:]
+    assert "--json" in process.stdout  # the maps command's own options were added
+    assert process.stdout.splitlines()[-1] == "0 False False"
+
+
+def test_a_misspelt_command_is_refused_with_every_name(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    status, _, err = run(["explor"], capsys)
+    assert status == 2
+    for name in ("explore", "review", "merge", "sweep", "maps"):
+        assert name in err
