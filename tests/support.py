@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import subprocess
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -22,6 +23,14 @@ def load_script(name: str) -> ModuleType:
     sys.modules[spec.name] = module  # dataclasses resolve their module by name
     spec.loader.exec_module(module)
     return module
+
+
+def run_python(script: str) -> str:
+    """Standard output of ``script`` run by a fresh interpreter, which must succeed: for
+    what a test cannot see in its own process (the modules an import loads, a crash)."""
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-2000:]
+    return run.stdout
 
 
 def real_maps_dir() -> Path | None:

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -27,6 +24,7 @@ from merging.evidence.refine import SmoothedMap, constraint_strength
 from merging.evidence.verify import confidence, prepare_map, verify
 from merging.transforms import apply_transform, rigid_matrix
 from tests.merging.builders import UNMERGEABLE_CASES, synthetic_building, turned, unmergeable_pair
+from tests.support import run_python
 
 BASELINES = ("spectral", "sift", "harris", "shi_tomasi", "orb", "registration")
 RIGHT_CELLS = 2.0
@@ -285,9 +283,7 @@ def test_ros_pipeline_refuses_a_grid_one_cell_wide(opencv, method: str, shape) -
         "    assert not result.accepted, result\n"
         "    print(result.reason)\n"
     )
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert "at least 2 cells a side" in run.stdout
+    assert "at least 2 cells a side" in run_python(script)
 
 
 def test_importing_merging_leaves_the_feature_and_signal_libraries_unloaded() -> None:
@@ -298,7 +294,5 @@ def test_importing_merging_leaves_the_feature_and_signal_libraries_unloaded() ->
         "import sys, merging; "
         "print(sorted(m for m in ('skimage.feature', 'scipy.signal') if m in sys.modules))"
     )
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert run.stdout.strip() == "[]"
+    assert run_python(script).strip() == "[]"
     assert "sift" in merging.available_methods()

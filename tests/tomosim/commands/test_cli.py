@@ -10,6 +10,7 @@ import pytest
 
 from merging import OccupancyGrid, available_methods, load_map, save_map
 from merging.evaluation.metrics import transform_error
+from tests.support import run_python
 from tests.tomosim.commands.cli_support import assert_one_line_error, run
 from tomosim.commands.demo_maps import demo_pair
 from tomosim.commands.merge_report import format_table
@@ -348,19 +349,15 @@ def test_help_lists_methods_and_version(capsys: pytest.CaptureFixture[str]) -> N
 
 
 def test_a_command_imports_its_own_module_alone() -> None:
-    import subprocess
-    import sys
-
     # `tomosim maps` needs neither the simulator nor the viewer's SDK: only the module
     # of the command named is imported (a second sooner on the command line).
     script = (
         "import sys; from tomosim.cli import main; status = main(['maps', '--help']); "
         "print(status, 'rerun' in sys.modules, 'tomosim.commands.explore' in sys.modules)"
     )
-    process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert process.returncode == 0, process.stderr[-2000:]
-    assert "--json" in process.stdout  # the maps command's own options were added
-    assert process.stdout.splitlines()[-1] == "0 False False"
+    printed = run_python(script)
+    assert "--json" in printed  # the maps command's own options were added
+    assert printed.splitlines()[-1] == "0 False False"
 
 
 def test_a_misspelt_command_is_refused_with_every_name(
