@@ -74,8 +74,11 @@ def build_parser(arguments: Sequence[str] | None = None) -> Parser:
 def _named_command(arguments: Sequence[str] | None) -> str | None:
     """The command ``arguments`` name (their first word not starting with ``-``: the
     program's own options take no value), or None when they name none of
-    :data:`COMMANDS`."""
+    :data:`COMMANDS` or ask for the program's help before it (``tomosim -h explore``
+    lists every command)."""
     for word in arguments or ():
+        if word in ("-h", "--help"):
+            return None
         if not word.startswith("-"):
             return word if word in COMMANDS else None
     return None

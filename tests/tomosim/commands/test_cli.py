@@ -41,6 +41,14 @@ def test_help_lists_merge(capsys: pytest.CaptureFixture[str]) -> None:
     assert "merge" in out
 
 
+def test_help_before_a_command_describes_every_command(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    status, out, _ = run(["-h", "explore"], capsys)
+    assert status == 0
+    assert "merge map_server maps" in out  # the merge command's line, not only its name
+
+
 def test_no_command_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     status, out, err = run([], capsys)
     assert status == 2
