@@ -86,7 +86,9 @@ def frontier_clusters(state: NDArray[np.uint8], *, min_size: int = 1) -> list[Fr
     """8-connected clusters of frontier cells with at least ``min_size`` cells.
 
     Clusters are returned in a fixed order (by their first cell in row-major
-    order), so planning on the same grid always sees them alike.
+    order), so planning on the same grid always sees them alike. The policy
+    runs the compiled :func:`tomosim.kernels.planning.frontier_groups`, which
+    the tests compare with this.
     """
     if min_size < 1:
         raise ValueError(f"min_size must be at least 1, got {min_size}")

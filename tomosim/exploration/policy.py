@@ -32,6 +32,7 @@ map in another frame.
 
 from __future__ import annotations
 
+import itertools
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -43,9 +44,9 @@ from merging.grid import OccupancyGrid
 from merging.validators import real_number, whole_number
 from tomosim.exploration.choosers import make_chooser
 from tomosim.exploration.controller import ControllerConfig, PathFollower
-from tomosim.exploration.frontiers import frontier_clusters
 from tomosim.exploration.planning import PlannerConfig, PlanningGrid, Wavefront, planning_grid
 from tomosim.exploration.targets import Candidate, TargetChooser, Teammate
+from tomosim.kernels.planning import frontier_groups
 from tomosim.lidar import Scan
 
 RECOVERY_COMMAND = (-0.3, 0.6)
@@ -254,8 +255,12 @@ class FrontierPolicy:
         cfg = self.config
         resolution = float(np.hypot(*planning.cell_to_frame[:2, 0]))
         candidates = []
-        for cluster in frontier_clusters(planning.state, min_size=cfg.min_frontier_size):
-            cells = cluster.cells
+        # The clusters frontier_clusters(planning.state) gives, in its order, compiled.
+        grouped, starts = frontier_groups(planning.state)
+        for first, last in itertools.pairwise(starts.tolist()):
+            if last - first < cfg.min_frontier_size:
+                continue
+            cells = grouped[first:last]
             points = planning.to_frame(cells)
             if self.blacklist:
                 banned = np.zeros(len(cells), dtype=bool)
@@ -270,7 +275,7 @@ class FrontierPolicy:
                         cells[reachable],
                         points[reachable],
                         costs[reachable] * resolution,
-                        cluster.size * resolution,
+                        (last - first) * resolution,
                     )
                 )
         return candidates

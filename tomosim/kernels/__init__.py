@@ -22,7 +22,9 @@ with (``tests/tomosim/kernels/test_kernels.py``). Kernel, then oracle:
 - :func:`~tomosim.kernels.planning.block_states`:
   :func:`tomosim.exploration.frontiers.coarsen`;
 - :func:`~tomosim.kernels.planning.distances_to_walls`:
-  ``scipy.ndimage.distance_transform_edt``.
+  ``scipy.ndimage.distance_transform_edt``;
+- :func:`~tomosim.kernels.planning.frontier_groups`:
+  :func:`tomosim.exploration.frontiers.frontier_clusters`.
 
 The modules here import neither pymunk, PettingZoo nor rerun, and nothing of
 ``tomosim`` but each other.

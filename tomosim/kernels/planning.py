@@ -1,4 +1,4 @@
-"""The planner's grid, compiled: cell states and the distance to the nearest wall.
+"""The planner's grid, compiled: cell states, the distance to the nearest wall, frontiers.
 
 :func:`block_states` computes :func:`tomosim.exploration.frontiers.coarsen`:
 each block of ``factor`` x ``factor`` cells becomes occupied if any of its
@@ -7,8 +7,11 @@ function spells this out with reductions over a padded copy of the grid;
 the loop reads each cell once. :func:`distances_to_walls` computes
 ``scipy.ndimage.distance_transform_edt`` of the free cells, without the
 feature transform scipy builds on the way. The planner runs both once per
-plan (:func:`tomosim.exploration.planning.planning_grid`); the tests compare
-each with its oracle.
+plan (:func:`tomosim.exploration.planning.planning_grid`).
+:func:`frontier_groups` finds the clusters of
+:func:`tomosim.exploration.frontiers.frontier_clusters` (``scipy.ndimage.label``
+of the frontier mask) in one pass. The tests compare each kernel with its
+oracle.
 """
 
 from __future__ import annotations
@@ -102,3 +105,77 @@ def distances_to_walls(occupied: NDArray[np.bool_]) -> NDArray[np.float64]:
             if x == starts[top]:
                 top -= 1
     return out
+
+
+@kernel
+def frontier_groups(state: NDArray[np.uint8]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The 8-connected groups of frontier cells of a planning grid, in one pass.
+
+    A frontier cell is a free cell with an unknown 4-neighbour (cells off the
+    grid count as unknown). Returns ``(cells, starts)``: ``cells[starts[k] :
+    starts[k + 1]]`` are the ``(x, y)`` of group ``k``, in row-major order, and
+    the groups come in the row-major order of their first cells, as
+    :func:`tomosim.exploration.frontiers.frontier_clusters` orders what
+    ``scipy.ndimage.label`` finds (the tests compare the two). Groups are joined
+    with a union-find over the cells, scanned row by row.
+    """
+    rows, cols = state.shape
+    parent = np.full(rows * cols, -1, dtype=np.intp)  # -1: not a frontier cell
+    for r in range(rows):
+        for c in range(cols):
+            if state[r, c] != FREE_CELL:
+                continue
+            if not (
+                r == 0
+                or r == rows - 1
+                or c == 0
+                or c == cols - 1
+                or state[r - 1, c] == UNKNOWN_CELL
+                or state[r + 1, c] == UNKNOWN_CELL
+                or state[r, c - 1] == UNKNOWN_CELL
+                or state[r, c + 1] == UNKNOWN_CELL
+            ):
+                continue
+            here = r * cols + c
+            parent[here] = here
+            # The neighbours already scanned: west, north-west, north, north-east.
+            for dr, dc in ((0, -1), (-1, -1), (-1, 0), (-1, 1)):
+                nr, nc = r + dr, c + dc
+                if nr < 0 or nc < 0 or nc >= cols or parent[nr * cols + nc] < 0:
+                    continue
+                a, b = _root(parent, here), _root(parent, nr * cols + nc)
+                if a != b:
+                    # The root is always a group's first cell in row-major order.
+                    parent[max(a, b)] = min(a, b)
+    group = np.full(rows * cols, -1, dtype=np.intp)
+    sizes = np.zeros(rows * cols + 1, dtype=np.intp)
+    count = 0
+    for cell in range(rows * cols):
+        if parent[cell] < 0:
+            continue
+        root = _root(parent, cell)
+        if root == cell:
+            group[cell] = count
+            count += 1
+        else:
+            group[cell] = group[root]
+        sizes[group[cell] + 1] += 1
+    starts = np.cumsum(sizes[: count + 1])
+    filled = starts[:count].copy()
+    cells = np.empty((starts[count], 2), dtype=np.intp)
+    for cell in range(rows * cols):
+        k = group[cell]
+        if k >= 0:
+            cells[filled[k], 0] = cell % cols
+            cells[filled[k], 1] = cell // cols
+            filled[k] += 1
+    return cells, starts
+
+
+@kernel
+def _root(parent: NDArray[np.intp], cell: int) -> int:
+    """The root of ``cell``'s set, halving the path on the way."""
+    while parent[cell] != cell:
+        parent[cell] = parent[parent[cell]]
+        cell = parent[cell]
+    return cell

@@ -401,3 +401,30 @@ def test_wall_distances_kernel_matches_scipy_to_the_bit(seed: int) -> None:
             occupied[0, 0] = True
         expected = ndimage.distance_transform_edt(~occupied)
         assert distances_to_walls(occupied).tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_frontier_groups_kernel_matches_the_labelled_clusters(seed: int) -> None:
+    from tomosim.exploration.frontiers import frontier_clusters
+    from tomosim.kernels.planning import frontier_groups
+
+    generator = np.random.default_rng(seed)
+    # Grids of every mix of unknown, free and occupied cells, from a single row or column
+    # up; clusters touching the edges, merging late (a U shape) and crossing diagonally.
+    states = [
+        generator.choice(np.arange(3, dtype=np.uint8), size=shape, p=generator.dirichlet([1] * 3))
+        for shape in [(1, 25), (25, 1), *(tuple(generator.integers(2, 40, 2)) for _ in range(60))]
+    ]
+    u_shape = np.zeros((9, 9), dtype=np.uint8)
+    u_shape[1:8, 1] = u_shape[7, 1:8] = u_shape[1:8, 7] = 1
+    diagonal = np.zeros((6, 6), dtype=np.uint8)
+    diagonal[np.arange(6), np.arange(6)] = 1
+    states += [u_shape, diagonal]
+    for state in states:
+        cells, starts = frontier_groups(state)
+        expected = frontier_clusters(state)
+        assert len(starts) - 1 == len(expected)
+        for first, last, cluster in zip(starts[:-1], starts[1:], expected, strict=True):
+            assert cluster.size == last - first
+            assert cells.dtype == cluster.cells.dtype
+            np.testing.assert_array_equal(cells[first:last], cluster.cells)
