@@ -13,8 +13,9 @@ numpy caster it was written from, and pymunk's segment queries, the oracle
 the tests compare both with. A third times one plan of the frontier policy on
 the map one robot has drawn after ``--plan-after`` steps: the compiled
 planning kernels against the library calls they give to the bit (coarsening
-to planning cells, the distance to the nearest wall), then the whole
-planning grid and the wavefront over it. With ``--explore``, a fourth
+to planning cells, the distance to the nearest wall, the frontier clusters),
+then the whole planning grid and the wavefront over it. With ``--explore``, a
+fourth
 table follows one robot under the frontier policy on generated floors and
 reports the fraction of the free space it has mapped against the steps taken.
 
@@ -36,9 +37,9 @@ from scipy import ndimage
 
 from tomosim.commands.script_args import non_negative_int, positive_int, run_script
 from tomosim.evaluation import coverage
-from tomosim.exploration import FrontierPolicy, PlannerConfig, coarsen
+from tomosim.exploration import FrontierPolicy, PlannerConfig, coarsen, frontier_clusters
 from tomosim.exploration.planning import OCCUPIED_CELL, Wavefront, planning_grid
-from tomosim.kernels.planning import block_states, distances_to_walls
+from tomosim.kernels.planning import block_states, distances_to_walls, frontier_groups
 from tomosim.lidar import LidarConfig
 from tomosim.lidar_oracle import cast_pymunk
 from tomosim.ray_geometry import cast_segments, cull_segments, segment_bounds
@@ -138,6 +139,8 @@ def bench_plan(after: int, repeats: int) -> tuple[tuple[int, int], dict[str, flo
         ),
         "distance_transform_edt (scipy)": lambda: ndimage.distance_transform_edt(~occupied),
         "distances_to_walls (compiled)": lambda: distances_to_walls(occupied),
+        "frontier_clusters (scipy)": lambda: frontier_clusters(planning.state),
+        "frontier_groups (compiled)": lambda: frontier_groups(planning.state),
         "planning_grid": lambda: planning_grid(grid, config),
         "Wavefront": lambda: Wavefront(planning, start),
     }

@@ -14,6 +14,8 @@ def test_the_plan_table_times_every_stage_on_a_drawn_map() -> None:
         "block_states (compiled)",
         "distance_transform_edt (scipy)",
         "distances_to_walls (compiled)",
+        "frontier_clusters (scipy)",
+        "frontier_groups (compiled)",
         "planning_grid",
         "Wavefront",
     }
