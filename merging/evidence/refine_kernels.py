@@ -8,9 +8,12 @@ stage, or all evaluations, in one call.
 
 They compute what the numpy statements of the earlier Python loops computed,
 bit for bit: a sum of the field's values is numpy's pairwise sum
-(:func:`pairwise_sum`), and products of 3 x 3 matrices, the linear solve and
-the step's length go through the same BLAS and LAPACK routines numpy calls
-(``tests/merging/tomographic/test_kernels.py`` checks both against numpy).
+(:func:`pairwise_sum`), and products of 3 x 3 matrices and the step's length
+go through the same BLAS routines numpy calls. The 3 x 3 normal equations are
+solved by :func:`merging.evidence.solve3.solve3`, which agrees with numpy's
+LAPACK solve to the last bits and compiles in a fraction of the time
+(``tests/merging/evidence/test_refine_kernels.py`` holds the compiled loop to
+the numpy statements with that solve).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.evidence.blur import blur_sums
+from merging.evidence.solve3 import solve3
 
 PAIRWISE_BLOCK = 128
 """Values numpy's pairwise summation adds in eight running sums before it halves a run."""
@@ -279,7 +283,7 @@ def gauss_newton(
         for j in range(3):
             for k in range(3):
                 normal[j, k] += extra * (1.0 if j == k else 0.0)
-        motion = newton_factor * np.linalg.solve(normal, rhs)
+        motion = newton_factor * solve3(normal, rhs)
         length = math.sqrt(np.dot(motion, motion))
         if length > longest:
             motion *= longest / length

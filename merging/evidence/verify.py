@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.special import expit
 
+from merging.evidence.solve3 import inverse3
 from merging.grid import free_mask, occupied_mask
 from merging.params import ConfidenceParams, VerifyParams
 
@@ -309,9 +310,8 @@ def _both_ways(
 ) -> tuple[float, float, float, float, float, float, float, float]:
     """The landings :func:`verify` counts, in one call: map 2's walls on map 1 (known,
     near, clear), map 1's on map 2, then map 2's and map 1's open points on the other's
-    clear free space (0 unless ``space``). The inverse is numpy's (a solve against the
-    identity)."""
-    inverse = np.linalg.solve(matrix, np.eye(3)).astype(np.float64)
+    clear free space (0 unless ``space``)."""
+    inverse = inverse3(matrix)
     known_f, near_f, clear_f = _count_landings(matrix, second_points, stride, first_landing)
     known_b, near_b, clear_b = _count_landings(inverse, first_points, stride, second_landing)
     open_f = open_b = 0.0

@@ -21,6 +21,7 @@ from merging.evidence.refine import (
     constraint_strength,
 )
 from merging.evidence.refine_kernels import normal_equations, pairwise_sum
+from merging.evidence.solve3 import solve3
 from merging.evidence.verify import _landing, prepare_map, verify
 from merging.params import GaussNewtonParams
 from merging.tomographic.correlate import padded_rfft2
@@ -35,7 +36,9 @@ def test_pairwise_sum_is_numpys_sum(count: int) -> None:
 
 
 def _numpy_gauss_newton(field: Field, points, start, iterations: int, params: GaussNewtonParams):
-    """The refinement's loop as numpy statements (the reference of the compiled one)."""
+    """The refinement's loop as numpy statements (the reference of the compiled one); the
+    3 x 3 solve is :func:`solve3`'s Python (``tests/merging/evidence/test_solve3.py``
+    holds it to numpy's)."""
 
     def step_matrix(step, pivot):
         update = rotation_about(float(step[2]), pivot)
@@ -59,7 +62,7 @@ def _numpy_gauss_newton(field: Field, points, start, iterations: int, params: Ga
         best, best_total, halvings = current, total, 0
         pivot, radius, normal, rhs = normal_equations(landed, value, gx, gy, field.scale)
         normal += params.damping * (np.trace(normal) / 3 + 1e-12) * np.eye(3)
-        motion = params.newton_factor * np.linalg.solve(normal, rhs)
+        motion = params.newton_factor * solve3.py_func(normal, rhs)
         length = float(np.linalg.norm(motion))
         longest = max(params.max_step_cells, params.max_step_sigmas * field.sigma)
         if length > longest:
