@@ -207,5 +207,8 @@ def scan_team(
             max_range,
         )
         add_noise(ranges, normals[k], uniforms[k], noise_std, dropout_probability, max_range)
-        out[k] = ranges
+        # Element by element: assigning the row whole compiles numba's shape checks and
+        # their messages, a second and a half on a fresh install.
+        for beam in range(count):
+            out[k, beam] = ranges[beam]
     return out
