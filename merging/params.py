@@ -180,10 +180,12 @@ class TranslationParams:
         clear free space throughout costs in a shift's significance, against
         a wall block collected (the other way round of ``free_penalty``: map
         2's lidar saw through that space). On 30 seeds of the low-overlap
-        windows (``scripts/bench_real_maps.py low-overlap``, 9000 pairs) one
-        accepted 4247 right, 14 wrong, where the mass over the square root
-        of the landing walls accepted 4171 right, 14 wrong
-        (``docs/benchmarks/real_maps.md``).
+        windows (``scripts/bench_real_maps.py low-overlap``, 9000 pairs: 2026,
+        1717, 1818, 60606, 4242, 31415, 92653, 58979, 27182, 11111, 44444,
+        77777, 88888, 99999, 12345, 54321, 101, 202, 303, 404, 7, 13, 19, 23,
+        29, 37, 5150, 6161, 7272 and 8383) one accepted 4247 right, 14 wrong,
+        where the mass over the square root of the landing walls accepted 4171
+        right, 14 wrong.
     """
 
     coarse_cells: int = 160
@@ -411,8 +413,9 @@ class ConfidenceParams:
         corridor with nothing across it lets the restarts stay where they
         started. Tighter than the turn's: a placement held both ways is held
         by the sharpness of its optimum alone, with no count of walls. On
-        fifteen seeds of the low-overlap suite (4500 window
-        pairs, listed in ``docs/benchmarks/real_maps.md``) 107 of the 169
+        fifteen seeds of the low-overlap suite (4500 window pairs: 2026,
+        1717, 1818, 60606, 31415, 92653, 58979, 27182, 11111, 44444, then
+        77777, 88888, 99999, 12345 and 54321) 107 of the 169
         right placements asked came back within 0.75 (median 0.19), 69 of
         them then accepted; of the 15 wrong ones asked two did, 19 and 108
         cells off in symmetric parts of ``brsu_c069``, which the mirror check
@@ -825,9 +828,10 @@ class TomographicParams:
         overlap of a large map 2; the mirrored part is the overlap and its
         margin, so its twin lays most of its walls on map 1's ground and
         the collected mass ranks it, and the search skips two of its four
-        correlations per rotation. On the sixteen low-overlap seeds of
-        ``docs/benchmarks/real_maps.md`` no wrong answer was accepted with
-        six or with none, and the search for the twin took a fifth less time.
+        correlations per rotation. On sixteen low-overlap seeds (the fifteen
+        of ``ConfidenceParams.slide_return_cells`` and 4242) no wrong answer was
+        accepted with six or with none, and the search for the twin took a
+        fifth less time.
     compromise : RefineStage
         How an accepted placement of maps that bend against each other is
         refined to the best rigid compromise over the whole overlap
