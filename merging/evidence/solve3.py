@@ -4,8 +4,8 @@ The refinement solves its 3 x 3 normal equations at every Gauss-Newton step
 (:func:`merging.evidence.refine_kernels.gauss_newton`) and the verification
 inverts the placement it checks (:func:`merging.evidence.verify.verify`).
 ``np.linalg.solve`` inside a numba kernel calls LAPACK through a wrapper
-whose compilation (with its error reporting) took about 10 of the 13 seconds
-a fresh install spent compiling before its first merge. Gaussian elimination
+whose compilation (with its error reporting) took 5.5 of the 13.3 seconds a
+fresh install spent before its first merge. Gaussian elimination
 with partial pivoting on three unknowns is a dozen lines, compiles in a
 fraction of a second and gives the same answer to the last bit or two; it
 also gives the same bits on every machine, where LAPACK's kernels are chosen
