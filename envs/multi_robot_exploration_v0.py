@@ -182,7 +182,9 @@ Version history
   environment's own default team (:data:`V0_TEAM`) kept v0's schedule, so
   that a seed's episode stays the one recorded
   (``tests/envs/test_episode_digest.py``); a team passed in is used as
-  given, ``team=TeamConfig()`` with the sooner links.
+  given, ``team=TeamConfig()`` with the sooner links. Likewise when a confident
+  estimate began to link maps in its first round (``confirm_at_once_confidence``):
+  :data:`V0_TEAM` sets it to None.
 """
 
 from __future__ import annotations
@@ -229,11 +231,13 @@ RESOLUTION_TOLERANCE = 1e-9
 """Relative slack when checking that the crop resolution is a whole number of map cells."""
 V0_TEAM = TeamConfig(
     unlinked_merge_interval=TeamConfig().merge_interval,
+    confirm_at_once_confidence=None,
     tracker=TrackingParams(search_unlinked_at_once=False),
 )
 """The team of an environment made without ``team``: :class:`TeamConfig`'s defaults with
-v0's merge schedule, a round every ``merge_interval`` steps and each global search used
-at the pair's next round (version history)."""
+v0's merge schedule, a round every ``merge_interval`` steps, each global search used
+at the pair's next round and every estimate confirmed by a second round (version
+history)."""
 TEAM_SETTINGS = frozenset(f.name for f in dataclasses.fields(TeamConfig))
 """Names of the team's settings, which the environment takes in one ``team`` argument."""
 

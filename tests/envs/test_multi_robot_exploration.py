@@ -232,15 +232,17 @@ def test_every_team_setting_reaches_the_session_through_team() -> None:
     assert env.session is not None and env.session.config is team
     assert env.session.merger is not None and env.session.merger.config.confirmations == 1
     assert env.session.shared.refresh_interval == 3
-    # Without a team: the team's own defaults, with v0's merge schedule.
+    # Without a team: the team's own defaults, with v0's merge schedule and confirmations.
     default = small_env().team_config
     assert default is exploration.V0_TEAM
     assert default.unlinked_merge_interval == default.merge_interval
     assert not default.tracker.search_unlinked_at_once
+    assert default.confirm_at_once_confidence is None
     assert (
         dataclasses.replace(
             default,
             unlinked_merge_interval=TeamConfig().unlinked_merge_interval,
+            confirm_at_once_confidence=TeamConfig().confirm_at_once_confidence,
             tracker=TeamConfig().tracker,
         )
         == TeamConfig()

@@ -144,6 +144,16 @@ class TeamConfig:
         placement needs (``tracker.keep_confidence``) holds a pair's run but
         does not lengthen it: the track refined its own placement, and a
         wrong one holds as well as the round before on maps that barely grew.
+    confirm_at_once_confidence : float or None
+        An accepted estimate at least this confident links maps in the round
+        that found it, without waiting for ``confirmations`` rounds (None:
+        every estimate waits). Links matter most early, while the maps are
+        small and the robots re-explore what the others have seen; the false
+        matches the merger accepted in exploration on generated floors stayed
+        below 0.8, while a third of the pairs' first right acceptances reached
+        0.85 (``scripts/exploration_confidences.py``,
+        docs/benchmarks/exploration.md). The oracle's estimates, at
+        confidence 1, link at once.
     confirm_rotation_deg : float
         Degrees two rounds' estimates of one pair may differ by and still
         confirm each other: odometry drift moves an estimate by well under a
@@ -206,6 +216,7 @@ class TeamConfig:
     merge_interval: int = 50
     unlinked_merge_interval: int = 10
     confirmations: int = 2
+    confirm_at_once_confidence: float | None = 0.85
     confirm_rotation_deg: float = 3.0
     confirm_translation_m: float = 0.5
     oracle_error_deg: float = 0.0
@@ -227,6 +238,10 @@ class TeamConfig:
         whole_number(self.confirmations, "confirmations", minimum=1, unit="rounds")
         for name in ("merge", "tracking", "merge_worker"):
             boolean(getattr(self, name), name)
+        if self.confirm_at_once_confidence is not None:
+            real_number(
+                self.confirm_at_once_confidence, "confirm_at_once_confidence", low=0.0, high=1.0
+            )
         real_number(self.confirm_rotation_deg, "confirm_rotation_deg", low=0.0, unit="degrees")
         real_number(self.confirm_translation_m, "confirm_translation_m", low=0.0, unit="metres")
         real_number(self.oracle_error_deg, "oracle_error_deg", low=0.0, unit="degrees")

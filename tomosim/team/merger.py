@@ -9,12 +9,13 @@ A merge round
    :func:`merging.estimate_transform` or with the :data:`PairEstimator` given;
 2. counts an estimate as *confirmed* when the merger accepted it in
    ``confirmations`` consecutive rounds with consistent transforms (within
-   ``confirm_rotation_deg`` and ``confirm_translation_m``; all three settings
+   ``confirm_rotation_deg`` and ``confirm_translation_m``), or at once when
+   it is at least ``confirm_at_once_confidence`` confident (all four settings
    of :class:`~tomosim.team.config.TeamConfig`); an
    estimate that is not accepted is never used, and one accepted only once
-   is not used yet: a single wrong match, which would make a robot plan
-   through walls, rarely repeats itself in the next round, which sees more
-   of both maps. An estimate whose evidence says it was held only at a
+   below that confidence is not used yet: a single wrong match, which would
+   make a robot plan through walls, rarely repeats itself in the next round,
+   which sees more of both maps. An estimate whose evidence says it was held only at a
    kept link's lower threshold (:data:`HELD_ONLY`) keeps a pair's run of
    rounds but does not lengthen it: a placement refined from itself on maps
    that barely grew repeats its own evidence, and confirms nothing;
@@ -208,8 +209,8 @@ class TeamMerger:
         The team's settings; the merger reads ``method`` (a method of
         :func:`merging.available_methods`, or, with ``estimator``, the name it
         is reported under), ``merge_interval`` and ``unlinked_merge_interval``
-        (:meth:`due`), ``confirmations``, ``confirm_rotation_deg``,
-        ``confirm_translation_m`` and ``linking``.
+        (:meth:`due`), ``confirmations``, ``confirm_at_once_confidence``,
+        ``confirm_rotation_deg``, ``confirm_translation_m`` and ``linking``.
     rng : numpy.random.Generator, int or None
         Source of the merging methods' randomness; one stream serves all rounds.
     estimator : PairEstimator, optional
@@ -321,6 +322,19 @@ class TeamMerger:
         self._streaks[pair] = (streak, np.asarray(metres, dtype=np.float64))
         return streak
 
+    def confident(self, result: MergeResult) -> bool:
+        """Whether an accepted ``result`` links maps without waiting for its run of rounds:
+        at least ``confirm_at_once_confidence`` confident (never when it is None), and
+        not held only at a kept
+        link's lower threshold (:data:`HELD_ONLY`)."""
+        threshold = self.config.confirm_at_once_confidence
+        return (
+            threshold is not None
+            and result.accepted
+            and result.confidence >= threshold
+            and not result.evidence.get(HELD_ONLY)
+        )
+
     def merge(self, step: int, grids: Sequence[OccupancyGrid]) -> TeamMerge:
         """Run one merge round (steps 1-4 of the module docstring).
 
@@ -345,7 +359,7 @@ class TeamMerger:
                 raw[(i, j)] = result
                 streak = self.confirm((i, j), result)
                 needed = self.config.confirmations
-                if result.accepted and streak < needed:
+                if result.accepted and streak < needed and not self.confident(result):
                     why = f"awaiting confirmation ({streak} of {needed} rounds)"
                     result = replace(result, accepted=False, reason=why)
                 confirmed[(i, j)] = result

@@ -153,12 +153,35 @@ def test_merge_round_scores_views_of_the_truth(world: World) -> None:
 def test_unconfirmed_estimates_do_not_link_maps(world: World) -> None:
     starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2]])
     grids = [robot_view(world, start) for start in starts]
-    merger = TeamMerger(TeamConfig(merge_interval=1, confirmations=2), rng=0)
+    merger = TeamMerger(
+        TeamConfig(merge_interval=1, confirmations=2, confirm_at_once_confidence=None), rng=0
+    )
     first = merger.merge(1, grids)
     assert first.pairs[0].accepted and not first.pairs[0].confirmed
     assert not first.linked(0) and first.relative(0, 1) is None
     second = merger.merge(2, grids)
     assert second.pairs[0].confirmed and second.linked(1)
+
+
+def test_a_confident_estimate_links_maps_at_once_and_a_doubtful_one_waits(world: World) -> None:
+    starts = np.array([[3.2, 2.4, 0.4], [4.4, 3.1, -2.2], [6.0, 5.0, 1.0]])
+    grids = [robot_view(world, start) for start in starts]
+    confidences = {(0, 1): 0.9, (0, 2): 0.7, (1, 2): 0.1}
+
+    def estimator(i: int, j: int, first: OccupancyGrid, second: OccupancyGrid) -> MergeResult:
+        metres = true_relative(starts[i], starts[j])
+        cells = np.linalg.inv(first.cell_to_world_matrix()) @ metres @ second.cell_to_world_matrix()
+        confidence = confidences[(i, j)]
+        return MergeResult(cells, confidence, confidence > 0.5, "stub", metres)
+
+    config = TeamConfig(merge_interval=1, confirmations=2, confirm_at_once_confidence=0.85)
+    merger = TeamMerger(config, estimator=estimator)
+    first = merger.merge(1, grids)
+    assert [p.confirmed for p in first.pairs] == [True, False, False]
+    assert first.linked(1) and not first.linked(2)
+    second = merger.merge(2, grids)
+    assert [p.confirmed for p in second.pairs] == [True, True, False]
+    assert second.linked(2)
 
 
 def test_a_pair_estimator_replaces_the_merging_method(world: World) -> None:
