@@ -43,14 +43,16 @@ from numpy.typing import NDArray
 
 from merging.evidence.verify import PreparedMap, prepare_map, verify
 from merging.params import DEFAULT_PARAMS
-from merging.settings import parse_assignments
 from merging.tomographic.search import refine_from
-from tomosim.episode import EpisodeConfig
+from tomosim.commands.floor_episodes import (
+    add_floor_episode_arguments,
+    check_floor_episode_arguments,
+    floor_episode,
+)
 from tomosim.episode.outcome import GROSS_ROTATION_DEG, GROSS_TRANSLATION_M
 from tomosim.episode.runner import run_episode
 from tomosim.frames import frame_errors
-from tomosim.team import TeamConfig, TeamSession
-from tomosim.team.overrides import with_settings
+from tomosim.team import TeamSession
 from tomosim.team.quality import RoundQuality, in_cells, true_relative
 
 COLUMNS = (
@@ -88,6 +90,8 @@ FIGURES = (
     ("estimate against the best fit", "from_fit_rotation_deg", "from_fit_translation_m"),
 )
 """The summary's lines: a label and the two columns it summarises."""
+TEAM_EXAMPLE = "merger.confidence.accept=0.7"
+"""The ``--team`` setting the help and a malformed ``--team`` name as an example."""
 
 
 def compare_round(session: TeamSession, merge: RoundQuality) -> list[dict[str, Any]]:
@@ -195,31 +199,10 @@ def summarise(rows: Sequence[dict[str, Any]]) -> str:
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--worlds", nargs="+", type=int, default=[0, 1, 2], help="floor seeds")
-    parser.add_argument("--seeds", nargs="+", type=int, default=list(range(6)))
-    parser.add_argument("--robots", type=int, default=4)
-    parser.add_argument("--policy", default="utility")
-    parser.add_argument("--steps", type=int, default=4000, help="step cap of an episode")
+    add_floor_episode_arguments(parser, seeds=range(6), team_example=TEAM_EXAMPLE)
     parser.add_argument("--out", type=Path, default=Path("precision"))
-    parser.add_argument(
-        "--team",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a team setting by its dotted name, e.g. merger.confidence.accept=0.7 (repeatable)",
-    )
     args = parser.parse_args(argv)
-    try:
-        args.team = with_settings(
-            TeamConfig(),
-            parse_assignments(args.team, option="--team", example="merger.confidence.accept=0.7"),
-        )
-    except ValueError as error:
-        parser.error(f"--team: {error}")
-    if args.robots < 2:
-        parser.error(f"--robots {args.robots}: a pair needs at least 2 robots")
-    if args.steps < 1:
-        parser.error(f"--steps {args.steps}: give at least 1 step")
+    check_floor_episode_arguments(parser, args, team_example=TEAM_EXAMPLE)
     return args
 
 
@@ -233,16 +216,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         writer.writeheader()
         for seed in args.seeds:
             for world in args.worlds:
-                config = EpisodeConfig(
-                    world=str(world),
-                    robots=args.robots,
-                    policy=args.policy,
-                    steps=args.steps,
-                    seed=seed,
-                    team=args.team,
-                )
                 found: list[dict[str, Any]] = []
-                run_episode(config, on_merge=partial(collect, found))
+                run_episode(floor_episode(args, world, seed), on_merge=partial(collect, found))
                 for row in found:
                     row.update(world=f"floor{world}", seed=seed)
                     writer.writerow(row)

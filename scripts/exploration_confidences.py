@@ -1,0 +1,189 @@
+"""How confident the merger is when it accepts right and false matches in exploration.
+
+Exploration on generated floors with the team's settings; every pair estimate
+a merge round accepts is a row: its confidence, its rotation and translation
+errors against the truth, whether it was the pair's first acceptance in the
+episode, and whether it was confirmed (linked maps). A false match is an
+estimate beyond 5 degrees or 1 m of the truth (:mod:`tomosim.episode.outcome`).
+
+The summary says at which confidences the false matches were accepted, and
+for thresholds of :attr:`~tomosim.team.TeamConfig.confirm_at_once_confidence`
+how many of the pairs' first right acceptances and of the false matches reach
+each: a threshold links the first at once and must leave the second to the
+next round, which rarely repeats a false match. Run with
+``--team confirm_at_once_confidence=none`` to see every estimate wait, as before
+that setting.
+
+Usage::
+
+    python scripts/exploration_confidences.py --worlds 0 1 2 --seeds $(seq 0 63) --out confidences
+    python scripts/exploration_confidences.py --team confirm_at_once_confidence=none --out waiting
+
+Rows go to ``<out>/confidences.csv`` as each episode ends; rerunning the same
+command goes on from the episodes already there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tomosim.commands.floor_episodes import (
+    add_floor_episode_arguments,
+    check_floor_episode_arguments,
+    floor_episode,
+)
+from tomosim.episode import EpisodeConfig
+from tomosim.episode.outcome import GROSS_ROTATION_DEG, GROSS_TRANSLATION_M
+from tomosim.episode.runner import run_episode
+
+COLUMNS = (
+    "world",
+    "seed",
+    "step",
+    "pair",
+    "confidence",
+    "rotation_error_deg",
+    "translation_error_m",
+    "false_match",
+    "first_acceptance",
+    "confirmed",
+)
+"""The rows' columns: one accepted estimate each; ``first_acceptance`` is 1 for the
+first round that accepted the pair in its episode."""
+THRESHOLDS = (0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
+"""Confidences the summary counts the first right acceptances and false matches at."""
+TEAM_EXAMPLE = "confirm_at_once_confidence=none"
+"""The ``--team`` setting the help and a malformed ``--team`` name as an example."""
+
+
+def episode_rows(world: int, seed: int, config: EpisodeConfig) -> list[dict[str, Any]]:
+    """One episode's rows (:data:`COLUMNS`), in round order."""
+    metrics = run_episode(config)
+    rows = []
+    seen: set[str] = set()
+    for merge in metrics.merges:
+        for pair in merge.pairs:
+            if not pair.accepted:
+                continue
+            name = f"r{pair.first}-r{pair.second}"
+            false = (
+                pair.rotation_error_deg > GROSS_ROTATION_DEG
+                or pair.translation_error_m > GROSS_TRANSLATION_M
+            )
+            rows.append(
+                {
+                    "world": f"floor{world}",
+                    "seed": seed,
+                    "step": merge.step,
+                    "pair": name,
+                    "confidence": round(pair.confidence, 4),
+                    "rotation_error_deg": round(pair.rotation_error_deg, 3),
+                    "translation_error_m": round(pair.translation_error_m, 3),
+                    "false_match": int(false),
+                    "first_acceptance": int(name not in seen),
+                    "confirmed": int(pair.confirmed),
+                }
+            )
+            seen.add(name)
+    return rows
+
+
+def summarise(rows: Sequence[dict[str, Any]], episodes: int) -> str:
+    """The Markdown summary of the rows (module docstring)."""
+    false = [r for r in rows if int(r["false_match"])]
+    first = [r for r in rows if int(r["first_acceptance"]) and not int(r["false_match"])]
+    first_right = np.array([float(r["confidence"]) for r in first])
+    lines = [
+        f"{episodes} episodes, {len(rows)} accepted estimates, {len(false)} false matches "
+        f"(beyond {GROSS_ROTATION_DEG:g} deg or {GROSS_TRANSLATION_M:g} m), "
+        f"{sum(int(r['confirmed']) for r in false)} of them confirmed",
+        "",
+    ]
+    if false:
+        lines += [
+            "| false match | step | pair | confidence | rotation [deg] | translation [m] "
+            "| confirmed |",
+            "|---|---:|---|---:|---:|---:|---:|",
+        ]
+        for r in sorted(false, key=lambda r: -float(r["confidence"])):
+            lines.append(
+                f"| {r['world']} seed {r['seed']} | {r['step']} | {r['pair']} | "
+                f"{float(r['confidence']):.3f} | {float(r['rotation_error_deg']):.1f} | "
+                f"{float(r['translation_error_m']):.1f} | {r['confirmed']} |"
+            )
+        lines.append("")
+    if len(first_right):
+        quartiles = np.percentile(first_right, [25, 50, 75])
+        lines += [
+            f"first right acceptances of a pair: {len(first_right)}, confidence quartiles "
+            + ", ".join(f"{q:.3f}" for q in quartiles),
+            "",
+            "| confidence at least | first right acceptances | false matches |",
+            "|---:|---:|---:|",
+        ]
+        for threshold in THRESHOLDS:
+            right = np.mean(first_right >= threshold)
+            wrong = sum(float(r["confidence"]) >= threshold for r in false)
+            lines.append(f"| {threshold:.2f} | {right:.1%} | {wrong} |")
+    return "\n".join(lines)
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_floor_episode_arguments(parser, seeds=range(16), team_example=TEAM_EXAMPLE)
+    parser.add_argument("--workers", type=int, default=2, help="episodes run at a time")
+    parser.add_argument("--out", type=Path, default=Path("confidences"))
+    args = parser.parse_args(argv)
+    check_floor_episode_arguments(parser, args, team_example=TEAM_EXAMPLE)
+    if args.workers < 1:
+        parser.error(f"--workers {args.workers}: give at least 1")
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / "confidences.csv"
+    done_path = args.out / "episodes.txt"
+    done = set(done_path.read_text(encoding="utf-8").split()) if done_path.exists() else set()
+    kept = []
+    if path.exists():  # rows of an episode that did not finish writing are left out
+        with path.open(newline="", encoding="utf-8") as handle:
+            kept = [r for r in csv.DictReader(handle) if f"{r['world']}/{r['seed']}" in done]
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows(kept)
+    wanted = [(w, s) for s in args.seeds for w in args.worlds if f"floor{w}/{s}" not in done]
+    with ProcessPoolExecutor(args.workers) as pool:
+        futures = {
+            (world, seed): pool.submit(episode_rows, world, seed, floor_episode(args, world, seed))
+            for world, seed in wanted
+        }
+        for (world, seed), future in futures.items():
+            rows = future.result()
+            with path.open("a", newline="", encoding="utf-8") as handle:
+                csv.DictWriter(handle, fieldnames=COLUMNS).writerows(rows)
+            with done_path.open("a", encoding="utf-8") as handle:  # after its rows: resumable
+                handle.write(f"floor{world}/{seed}\n")
+            print(f"floor{world} seed {seed}: {len(rows)} accepted", file=sys.stderr)
+    keys = {f"floor{w}/{s}" for s in args.seeds for w in args.worlds}
+    with path.open(newline="", encoding="utf-8") as handle:
+        rows = [r for r in csv.DictReader(handle) if f"{r['world']}/{r['seed']}" in keys]
+    report = summarise(rows, len(keys))
+    (args.out / "confidences.md").write_text(report + "\n", encoding="utf-8")
+    print(report)
+    print(f"\nrows: {path}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,71 @@
+"""``scripts/exploration_confidences.py``: the confidences of right and false acceptances."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from tests.support import load_script
+
+
+@pytest.mark.slow
+def test_rows_mark_each_pairs_first_acceptance_and_a_rerun_resumes(tmp_path: Path) -> None:
+    confidences = load_script("exploration_confidences")
+    # Four robots on the default floor link a first pair by step 40 (seed 0).
+    argv = ["--worlds", "0", "--seeds", "0", "--steps", "80", "--workers", "1"]
+    argv += ["--out", str(tmp_path)]
+    assert confidences.main(argv) == 0
+    with (tmp_path / "confidences.csv").open(encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert rows and {r["world"] for r in rows} == {"floor0"}
+    firsts = [r["pair"] for r in rows if r["first_acceptance"] == "1"]
+    assert sorted(firsts) == sorted({r["pair"] for r in rows})  # one first per pair
+    assert all(0.0 < float(r["confidence"]) <= 1.0 and int(r["step"]) <= 80 for r in rows)
+    report = (tmp_path / "confidences.md").read_text(encoding="utf-8")
+    assert report.startswith(f"1 episodes, {len(rows)} accepted estimates")
+    assert confidences.main(argv) == 0  # the episode is done: nothing runs, nothing doubles
+    with (tmp_path / "confidences.csv").open(encoding="utf-8") as handle:
+        assert len(list(csv.DictReader(handle))) == len(rows)
+
+
+def test_the_summary_counts_first_right_acceptances_and_false_matches_per_threshold() -> None:
+    confidences = load_script("exploration_confidences")
+    base = {"world": "floor1", "seed": 48, "step": 80, "pair": "r1-r2", "confirmed": 0}
+    rows = [
+        base | {"confidence": 0.9, "rotation_error_deg": 0.2, "translation_error_m": 0.1,
+                "false_match": 0, "first_acceptance": 1},
+        base | {"confidence": 0.7, "rotation_error_deg": 0.2, "translation_error_m": 0.1,
+                "false_match": 0, "first_acceptance": 1},
+        base | {"confidence": 0.95, "rotation_error_deg": 0.2, "translation_error_m": 0.1,
+                "false_match": 0, "first_acceptance": 0},
+        base | {"confidence": 0.66, "rotation_error_deg": 179.9, "translation_error_m": 25.6,
+                "false_match": 1, "first_acceptance": 1, "confirmed": 1},
+    ]  # fmt: skip
+    report = confidences.summarise(rows, 1)
+    assert report.startswith("1 episodes, 4 accepted estimates, 1 false matches")
+    assert "1 of them confirmed" in report
+    assert "| floor1 seed 48 | 80 | r1-r2 | 0.660 | 179.9 | 25.6 | 1 |" in report
+    assert "first right acceptances of a pair: 2" in report
+    assert "| 0.65 | 100.0% | 1 |" in report
+    assert "| 0.70 | 100.0% | 0 |" in report
+    assert "| 0.85 | 50.0% | 0 |" in report
+    assert "| 0.95 | 0.0% | 0 |" in report
+
+
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["--robots", "1"], "at least 2 robots"),
+        (["--workers", "0"], "at least 1"),
+        (["--team", "confirm_at_once_confidence=1.5"], "confirm_at_once_confidence"),
+    ],
+)
+def test_bad_arguments_are_refused_with_what_to_do(
+    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    confidences = load_script("exploration_confidences")
+    with pytest.raises(SystemExit) as stopped:
+        confidences.parse_args(argv)
+    assert stopped.value.code == 2 and said in capsys.readouterr().err
