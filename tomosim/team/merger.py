@@ -15,8 +15,9 @@ A merge round
    estimate that is not accepted is never used, and one accepted only once
    below that confidence is not used yet: a single wrong match, which would
    make a robot plan through walls, rarely repeats itself in the next round,
-   which sees more of both maps. An estimate whose evidence says it was held only at a
-   kept link's lower threshold (:data:`HELD_ONLY`) keeps a pair's run of
+   which sees more of both maps, and the merger accepts its false matches
+   at lower confidences. An estimate whose evidence says it was held only at
+   a kept link's lower threshold (:data:`HELD_ONLY`) keeps a pair's run of
    rounds but does not lengthen it: a placement refined from itself on maps
    that barely grew repeats its own evidence, and confirms nothing;
 3. links the maps through the confirmed pairs (:func:`merging.link_maps`, with
@@ -324,9 +325,8 @@ class TeamMerger:
 
     def confident(self, result: MergeResult) -> bool:
         """Whether an accepted ``result`` links maps without waiting for its run of rounds:
-        at least ``confirm_at_once_confidence`` confident (never when it is None), and
-        not held only at a kept
-        link's lower threshold (:data:`HELD_ONLY`)."""
+        at least ``confirm_at_once_confidence`` confident (never when that is None), and
+        not held only at a kept link's lower threshold (:data:`HELD_ONLY`)."""
         threshold = self.config.confirm_at_once_confidence
         return (
             threshold is not None
