@@ -20,13 +20,15 @@ Usage::
     python scripts/exploration_confidences.py --team confirm_at_once_confidence=none --out waiting
 
 Rows go to ``<out>/confidences.csv`` as each episode ends; rerunning the same
-command goes on from the episodes already there.
+command goes on from the episodes already there (``<out>/episodes.txt``), and a
+run with other settings into the same folder is refused (``<out>/settings.json``).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import json
 import sys
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -43,6 +45,7 @@ from tomosim.commands.floor_episodes import (
 from tomosim.episode import EpisodeConfig
 from tomosim.episode.outcome import GROSS_ROTATION_DEG, GROSS_TRANSLATION_M
 from tomosim.episode.runner import run_episode
+from tomosim.team.overrides import changed_settings
 
 COLUMNS = (
     "world",
@@ -62,6 +65,9 @@ THRESHOLDS = (0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
 """Confidences the summary counts the first right acceptances and false matches at."""
 TEAM_EXAMPLE = "confirm_at_once_confidence=none"
 """The ``--team`` setting the help and a malformed ``--team`` name as an example."""
+SETTINGS_FILE = "settings.json"
+"""The file in ``--out`` naming the settings its episodes ran with; a run into a folder
+whose episodes ran with others is refused rather than mixed."""
 
 
 def episode_rows(world: int, seed: int, config: EpisodeConfig) -> list[dict[str, Any]]:
@@ -102,7 +108,7 @@ def summarise(rows: Sequence[dict[str, Any]], episodes: int) -> str:
     first = [r for r in rows if int(r["first_acceptance"]) and not int(r["false_match"])]
     first_right = np.array([float(r["confidence"]) for r in first])
     lines = [
-        f"{episodes} episodes, {len(rows)} accepted estimates, {len(false)} false matches "
+        f"episodes: {episodes}; {len(rows)} accepted estimates, {len(false)} false matches "
         f"(beyond {GROSS_ROTATION_DEG:g} deg or {GROSS_TRANSLATION_M:g} m), "
         f"{sum(int(r['confirmed']) for r in false)} of them confirmed",
         "",
@@ -148,12 +154,28 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     return args
 
 
+def run_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """What makes one folder's episodes comparable: the team settings changed from the
+    defaults, the team size, the policy and the step cap."""
+    team = json.loads(json.dumps(changed_settings(args.team)))
+    return {"team": team, "robots": args.robots, "policy": args.policy, "steps": args.steps}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "confidences.csv"
     done_path = args.out / "episodes.txt"
     done = set(done_path.read_text(encoding="utf-8").split()) if done_path.exists() else set()
+    settings_path, settings = args.out / SETTINGS_FILE, run_settings(args)
+    if done and settings_path.exists():
+        before = json.loads(settings_path.read_text(encoding="utf-8"))
+        if before != settings:
+            raise SystemExit(
+                f"{args.out} holds episodes run with {before}, not {settings}; give another "
+                "--out for these settings"
+            )
+    settings_path.write_text(json.dumps(settings, indent=2) + "\n", encoding="utf-8")
     kept = []
     if path.exists():  # rows of an episode that did not finish writing are left out
         with path.open(newline="", encoding="utf-8") as handle:

@@ -24,8 +24,13 @@ def test_rows_mark_each_pairs_first_acceptance_and_a_rerun_resumes(tmp_path: Pat
     assert sorted(firsts) == sorted({r["pair"] for r in rows})  # one first per pair
     assert all(0.0 < float(r["confidence"]) <= 1.0 and int(r["step"]) <= 80 for r in rows)
     report = (tmp_path / "confidences.md").read_text(encoding="utf-8")
-    assert report.startswith(f"1 episodes, {len(rows)} accepted estimates")
+    assert report.startswith(f"episodes: 1; {len(rows)} accepted estimates")
     assert confidences.main(argv) == 0  # the episode is done: nothing runs, nothing doubles
+    with (tmp_path / "confidences.csv").open(encoding="utf-8") as handle:
+        assert len(list(csv.DictReader(handle))) == len(rows)
+    # Another team into the same folder would mix two teams' rows: refused, rows kept.
+    with pytest.raises(SystemExit, match="give another --out"):
+        confidences.main([*argv, "--team", "confirm_at_once_confidence=none"])
     with (tmp_path / "confidences.csv").open(encoding="utf-8") as handle:
         assert len(list(csv.DictReader(handle))) == len(rows)
 
@@ -44,7 +49,7 @@ def test_the_summary_counts_first_right_acceptances_and_false_matches_per_thresh
                 "false_match": 1, "first_acceptance": 1, "confirmed": 1},
     ]  # fmt: skip
     report = confidences.summarise(rows, 1)
-    assert report.startswith("1 episodes, 4 accepted estimates, 1 false matches")
+    assert report.startswith("episodes: 1; 4 accepted estimates, 1 false matches")
     assert "1 of them confirmed" in report
     assert "| floor1 seed 48 | 80 | r1-r2 | 0.660 | 179.9 | 25.6 | 1 |" in report
     assert "first right acceptances of a pair: 2" in report

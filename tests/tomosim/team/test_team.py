@@ -114,6 +114,17 @@ def test_an_estimate_held_only_at_the_keeping_threshold_confirms_nothing() -> No
     assert merger.confirm(pair, jumped) == 1  # a different placement starts a new run
 
 
+def test_only_a_confident_estimate_of_its_own_skips_the_second_round() -> None:
+    sure = replace(fake_result((1.0, 2.0, 0.5), accepted=True), confidence=0.9)
+    held = replace(sure, evidence={HELD_ONLY: 1.0})  # a kept track, not a new placement
+    refused = replace(sure, accepted=False)
+    merger = TeamMerger(TeamConfig(confirm_at_once_confidence=0.85), rng=0)
+    assert merger.confident(sure)
+    assert not merger.confident(held) and not merger.confident(refused)
+    assert not merger.confident(replace(sure, confidence=0.84))
+    assert not TeamMerger(TeamConfig(confirm_at_once_confidence=None), rng=0).confident(sure)
+
+
 def test_the_confirmation_tolerances_are_team_settings() -> None:
     # The same half-degree step confirms within 3 degrees and starts again within 0.1.
     steps = [
@@ -172,7 +183,7 @@ def test_a_confident_estimate_links_maps_at_once_and_a_doubtful_one_waits(world:
         metres = true_relative(starts[i], starts[j])
         cells = np.linalg.inv(first.cell_to_world_matrix()) @ metres @ second.cell_to_world_matrix()
         confidence = confidences[(i, j)]
-        return MergeResult(cells, confidence, confidence > 0.5, "stub", metres)
+        return MergeResult(cells, confidence, confidence > 0.5, "fixed confidences", metres)
 
     config = TeamConfig(merge_interval=1, confirmations=2, confirm_at_once_confidence=0.85)
     merger = TeamMerger(config, estimator=estimator)
