@@ -147,11 +147,13 @@ class TeamConfig:
     confirm_at_once_confidence : float or None
         An accepted estimate at least this confident links maps in the round
         that found it, without waiting for ``confirmations`` rounds (None:
-        every estimate waits). Links matter most early, while the maps are
-        small and the robots re-explore what the others have seen; the false
-        matches the merger accepted in exploration on generated floors stayed
-        below 0.8, while a third of the pairs' first right acceptances reached
-        0.85 (``scripts/exploration_confidences.py``,
+        every estimate waits); it counts as the whole run, so the rounds after
+        it keep the link as they keep one confirmed round by round. Links
+        matter most early, while the maps are small and the robots re-explore
+        what the others have seen; the false matches the merger accepted in
+        exploration on generated floors stayed below 0.8, while a third of the
+        pairs' first right acceptances reached 0.85
+        (``scripts/exploration_confidences.py``,
         docs/benchmarks/exploration.md). The oracle's estimates, at
         confidence 1, link at once.
     confirm_rotation_deg : float

@@ -11,7 +11,7 @@ A merge round
    ``confirmations`` consecutive rounds with consistent transforms (within
    ``confirm_rotation_deg`` and ``confirm_translation_m``), or at once when
    it is at least ``confirm_at_once_confidence`` confident (all four settings
-   of :class:`~tomosim.team.config.TeamConfig`); an
+   of :class:`~tomosim.team.config.TeamConfig`), which counts as the whole run; an
    estimate that is not accepted is never used, and one accepted only once
    below that confidence is not used yet: a single wrong match, which would
    make a robot plan through walls, rarely repeats itself in the next round,
@@ -306,7 +306,9 @@ class TeamMerger:
 
         An estimate held only at a kept link's threshold (:data:`HELD_ONLY`),
         consistent with the run, leaves the run as it was; one that is not
-        consistent starts a new run of one.
+        consistent starts a new run of one. A confident estimate (:meth:`confident`)
+        counts as a whole run of ``confirmations`` rounds, so a link it makes is kept
+        by the rounds that follow as a link confirmed round by round is.
         """
         metres = result.matrix_metres
         if not result.accepted or metres is None or not np.all(np.isfinite(metres)):
@@ -320,6 +322,10 @@ class TeamMerger:
         )
         held_only = bool(result.evidence.get(HELD_ONLY))
         streak = (count if held_only else count + 1) if count and consistent else 1
+        if self.confident(result):
+            # A whole run at once: the link then stays while later rounds hold it, as a
+            # run confirmed round by round does.
+            streak = max(streak, self.config.confirmations)
         self._streaks[pair] = (streak, np.asarray(metres, dtype=np.float64))
         return streak
 
@@ -359,7 +365,7 @@ class TeamMerger:
                 raw[(i, j)] = result
                 streak = self.confirm((i, j), result)
                 needed = self.config.confirmations
-                if result.accepted and streak < needed and not self.confident(result):
+                if result.accepted and streak < needed:
                     why = f"awaiting confirmation ({streak} of {needed} rounds)"
                     result = replace(result, accepted=False, reason=why)
                 confirmed[(i, j)] = result

@@ -88,7 +88,7 @@ def test_frame_errors_measure_rotation_and_start_displacement() -> None:
 
 def fake_result(pose: tuple[float, float, float], *, accepted: bool) -> MergeResult:
     metres = pose_matrix(pose)
-    return MergeResult(np.eye(3), 0.9 if accepted else 0.1, accepted, "fake", metres)
+    return MergeResult(np.eye(3), 0.7 if accepted else 0.1, accepted, "fake", metres)
 
 
 def test_confirmation_needs_consecutive_consistent_acceptances() -> None:
@@ -123,6 +123,22 @@ def test_only_a_confident_estimate_of_its_own_skips_the_second_round() -> None:
     assert not merger.confident(held) and not merger.confident(refused)
     assert not merger.confident(replace(sure, confidence=0.84))
     assert not TeamMerger(TeamConfig(confirm_at_once_confidence=None), rng=0).confident(sure)
+
+
+def test_a_link_made_at_once_is_kept_by_the_rounds_that_hold_it() -> None:
+    """A confident estimate counts as a whole run: the next round's estimate held only at
+    the keeping threshold keeps the link, as it keeps one confirmed round by round."""
+    merger = TeamMerger(TeamConfig(confirmations=2, confirm_at_once_confidence=0.85), rng=0)
+    pair = (0, 1)
+    sure = replace(fake_result((1.0, 2.0, 0.5), accepted=True), confidence=0.9)
+    held = replace(sure, confidence=0.55, evidence={HELD_ONLY: 1.0})
+    assert merger.confirm(pair, sure) == 2
+    assert merger.confirm(pair, held) == 2
+    assert merger.confirm(pair, replace(held, evidence={})) == 3
+    jumped = replace(held, matrix_metres=pose_matrix((4.0, 2.0, 0.5)))
+    assert merger.confirm(pair, jumped) == 1  # a different placement starts again
+    waiting = TeamMerger(TeamConfig(confirmations=2, confirm_at_once_confidence=None), rng=0)
+    assert [waiting.confirm(pair, result) for result in (sure, held)] == [1, 1]
 
 
 def test_the_confirmation_tolerances_are_team_settings() -> None:
@@ -240,7 +256,8 @@ def test_rounds_come_sooner_while_the_maps_are_not_all_linked_into_one(world: Wo
     merger.merge(15, grids)
     assert merger.interval == 20 and not merger.due(25) and merger.due(40)
     # Between regular rounds, a round runs only when it could change something.
-    twice = TeamConfig(method=ORACLE, merge_interval=20, unlinked_merge_interval=5)
+    twice = TeamConfig(method=ORACLE, merge_interval=20, unlinked_merge_interval=5,
+                       confirm_at_once_confidence=None)  # fmt: skip
     unlinked = TeamMerger(twice, estimator=estimator, round_wanted=lambda grids: False)
     refused["pairs"] = {(0, 1), (0, 2), (1, 2)}
     assert unlinked.due(5) and not unlinked.due(5, lambda: grids)  # without grids: it runs
@@ -251,6 +268,12 @@ def test_rounds_come_sooner_while_the_maps_are_not_all_linked_into_one(world: Wo
     assert unlinked.due(25, lambda: grids)
     unlinked.merge(25, grids)  # confirmed; robot 2 is still alone, with nothing to do
     assert not unlinked.due(30, lambda: grids) and unlinked.due(40, lambda: grids)
+    # A pair linked at once by a confident estimate awaits nothing.
+    at_once = TeamMerger(replace(twice, confirm_at_once_confidence=0.85), estimator=estimator,
+                         round_wanted=lambda grids: False)  # fmt: skip
+    refused["pairs"] = {(0, 2), (1, 2)}
+    assert at_once.merge(20, grids).pairs[0].confirmed
+    assert not at_once.due(25, lambda: grids)
     # Never shorter than merge_interval, and one robot alone has nobody to link to.
     assert TeamMerger(TeamConfig(merge_interval=4)).interval == 4
     alone = TeamMerger(TeamConfig(merge_interval=20))
