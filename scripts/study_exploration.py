@@ -157,7 +157,9 @@ def report(
         "",
         "Intervals: the middle 90 % over the episodes resampled with replacement "
         "(each with its three methods). The first link is the step of the first merge "
-        "round that linked two maps, median (range) over the episodes.",
+        "round that linked two maps, all linked that of the first that linked every "
+        "robot's map into one, median (range) over the episodes (never: the target was "
+        "reached first; -: not in the results files).",
         "",
         criterion_table(worlds, tables, policy, CORE_TEAM),
         "",

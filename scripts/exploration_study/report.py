@@ -357,12 +357,14 @@ def criterion_table(
     """The exploration target on the generated floors (pooled, then each floor): the
     tomographic merger's median time over the oracle's and its share of the oracle's
     saving over no merging, each with the interval of :func:`interval`; the per-episode
-    ratios; the first linking round of either method; false matches confirmed."""
+    ratios; the first round that linked two maps, and the first that linked them all, of
+    either method; false matches confirmed."""
     lines = [
         "| world | episodes | tomographic / oracle (90 % interval) | share of the oracle's "
         "saving (90 % interval) | per episode tomographic / oracle, median (range) | first "
-        "link, tomographic [step] | first link, oracle [step] | false matches confirmed |",
-        "|---|---:|---|---|---|---|---|---:|",
+        "link, tomographic [step] | first link, oracle [step] | all linked, tomographic "
+        "[step] | all linked, oracle [step] | false matches confirmed |",
+        "|---|---:|---|---|---|---|---|---|---|---:|",
     ]
     floors = [w for w in worlds if w.generated and w.label in tables]
     groups = [("generated floors", floors)] if len(floors) > 1 else []
@@ -386,7 +388,8 @@ def criterion_table(
             f"| {name} | {len(episodes)} | {ratio(oracle_ratio_of(episodes))} "
             f"({ratio(ratio_low)}-{ratio(ratio_high)}) | {ratio(oracle_share_of(episodes))} "
             f"({ratio(share_low)}-{ratio(share_high)}) | {each} | {_steps(tomo.first_links)} "
-            f"| {_steps(oracle.first_links)} | {tomo.gross_wrong_confirmed} |"
+            f"| {_steps(oracle.first_links)} | {_steps(tomo.all_links)} "
+            f"| {_steps(oracle.all_links)} | {tomo.gross_wrong_confirmed} |"
         )
     return "\n".join(lines)
 

@@ -45,6 +45,10 @@ class Cell:
     first_links : tuple of float
         Per seed (same order), the step of the first merge round that linked
         two maps, NaN when none did.
+    all_links : tuple of float
+        Per seed (same order), the step of the first merge round that linked
+        every robot's map into one, NaN when none did; empty when the results
+        file predates the column (unknown, not never).
     """
 
     times: tuple[float, ...]
@@ -56,6 +60,7 @@ class Cell:
     gross_wrong_confirmed: int
     accepted: int
     first_links: tuple[float, ...] = ()
+    all_links: tuple[float, ...] = ()
 
     @property
     def median(self) -> float:
@@ -97,6 +102,9 @@ def cells(rows: Iterable[dict[str, str]]) -> dict[tuple[int, str, str], Cell]:
             gross_wrong_confirmed=sum(int(r["pairs_gross_wrong_confirmed"]) for r in mine),
             accepted=sum(int(r["pairs_accepted"]) for r in mine),
             first_links=tuple(_number(r.get("first_link_step", "")) for r in mine),
+            all_links=tuple(_number(r["all_linked_step"]) for r in mine)
+            if all("all_linked_step" in r for r in mine)
+            else (),
         )
     return out
 
@@ -151,6 +159,9 @@ def pooled(tables: Sequence[dict[tuple[int, str, str], Cell]], robots: int, poli
         gross_wrong_confirmed=sum(c.gross_wrong_confirmed for c in found),
         accepted=sum(c.accepted for c in found),
         first_links=tuple(step for c in found for step in c.first_links),
+        all_links=tuple(step for c in found for step in c.all_links)
+        if all(c.all_links or not c.seeds for c in found)
+        else (),
     )
 
 
@@ -188,6 +199,7 @@ def on_common_seeds(found: Sequence[Cell | None]) -> list[Cell | None]:
                 gross_wrong_confirmed=cell.gross_wrong_confirmed,
                 accepted=cell.accepted,
                 first_links=tuple(cell.first_links[k] for k in keep) if cell.first_links else (),
+                all_links=tuple(cell.all_links[k] for k in keep) if cell.all_links else (),
             )
         )
     return out

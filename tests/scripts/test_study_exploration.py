@@ -66,7 +66,13 @@ def test_the_oracle_figures_pair_episodes_and_show_first_links(study) -> None:
     assert report.interval(episodes, report.oracle_ratio_of) == (low, high)  # seeded
     text = report.criterion_table([floor], {floor.label: table}, "utility", 4)
     assert "| floor0 | 3 | 1.20 (" in text
-    assert "| 175 (150-200), 1 never | 100 (100-100) | 0 |" in text
+    # Files without the all-linked column: unknown, not never.
+    assert "| 175 (150-200), 1 never | 100 (100-100) | - | - | 0 |" in text
+    linked = [{**row, "all_linked_step": row["first_link_step"]} for row in THREE_METHODS]
+    table = summary.cells(linked)
+    text = report.criterion_table([floor], {floor.label: table}, "utility", 4)
+    links = "| 175 (150-200), 1 never | 100 (100-100) "
+    assert f"{links}{links}| 0 |" in text
     each = report.first_links_table([floor], {floor.label: table}, "utility", 4)
     assert "| floor0 | 2 | - | 100 | 120 | 70 | 60 | 1.17 |" in each.splitlines()
 

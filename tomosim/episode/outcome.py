@@ -90,6 +90,10 @@ class MergeStats:
         The first round in which a confirmed estimate linked two maps.
     linked_robots : int
         Robots in the largest linked group at the last round (1 without links).
+    all_linked_step : int or None
+        The first round whose main group held every robot's map (None when
+        none did, and for a robot alone): what a team waits for when one
+        robot explores apart from the others.
     rotation_error_deg_max, translation_error_m_max : float
         Largest errors of accepted estimates (NaN when none was accepted).
     seconds : float
@@ -105,6 +109,7 @@ class MergeStats:
     gross_wrong_confirmed: int
     first_link_step: int | None
     linked_robots: int
+    all_linked_step: int | None
     rotation_error_deg_max: float
     translation_error_m_max: float
     seconds: float
@@ -205,6 +210,8 @@ class EpisodeMetrics:
         gross = (rotation > GROSS_ROTATION_DEG) | (translation > GROSS_TRANSLATION_M)
         confirmed = np.array([p.confirmed for p in accepted], dtype=bool)
         linked = [m.step for m in self.merges if any(p.used for p in m.pairs)]
+        team = int(self.settings.get("robots", len(self.robot_coverage_curves)))
+        whole = [m.step for m in self.merges if team > 1 and len(m.merged_robots) == team]
         last = self.merges[-1] if self.merges else None
         return MergeStats(
             rounds=len(self.merges),
@@ -216,6 +223,7 @@ class EpisodeMetrics:
             gross_wrong_confirmed=int(np.count_nonzero(gross & confirmed)),
             first_link_step=linked[0] if linked else None,
             linked_robots=len(last.merged_robots) if last is not None else 1,
+            all_linked_step=whole[0] if whole else None,
             rotation_error_deg_max=float(rotation.max()) if len(rotation) else math.nan,
             translation_error_m_max=float(translation.max()) if len(translation) else math.nan,
             seconds=float(sum(m.seconds for m in self.merges)),

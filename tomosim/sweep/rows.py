@@ -28,11 +28,15 @@ ROW_FIELDS = (
     "steps_to_target", "time_to_target_s", "stop_reason", "path_length_m", "path_lengths_m",
     "overlap_rate", "efficiency_m2_per_m", "merge_rounds", "pairs_accepted", "pairs_confirmed",
     "pairs_wrong", "pairs_gross_wrong", "pairs_gross_wrong_confirmed", "first_link_step",
-    "linked_robots",
+    "linked_robots", "all_linked_step",
     "rotation_error_deg_median", "rotation_error_deg_max", "translation_error_m_median",
     "translation_error_m_max", "record", *TIMING_FIELDS,
 )  # fmt: skip
 """Columns of the results file, in order."""
+EARLIER_ROW_FIELDS = (tuple(name for name in ROW_FIELDS if name != "all_linked_step"),)
+"""Columns of results files written by earlier versions, which a sweep still resumes: a
+file keeps the columns it was started with, so its rows never miss a column that its
+other rows hold (``all_linked_step`` is unknown, not empty, for their episodes)."""
 HEADER_BYTES = 4096
 """Bytes of a file read to check that it starts with the results header (about 700)."""
 
@@ -75,6 +79,7 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
         "pairs_gross_wrong_confirmed": stats.gross_wrong_confirmed,
         "first_link_step": "" if stats.first_link_step is None else stats.first_link_step,
         "linked_robots": stats.linked_robots,
+        "all_linked_step": "" if stats.all_linked_step is None else stats.all_linked_step,
         "rotation_error_deg_median": _stat(np.median, rotation),
         "rotation_error_deg_max": _stat(np.max, rotation),
         "translation_error_m_median": _stat(np.median, translation),
@@ -174,22 +179,35 @@ class ResultsFile:
 
     def check_columns(self) -> None:
         """Raise ValueError unless the file is missing, empty or starts with the header of
-        sweep results (:data:`ROW_FIELDS`); reads only its first line."""
+        sweep results (:data:`ROW_FIELDS`, or one of :data:`EARLIER_ROW_FIELDS`); reads
+        only its first line."""
+        self.columns()
+
+    def columns(self) -> tuple[str, ...]:
+        """The file's columns: :data:`ROW_FIELDS` for a new or empty file, else its header,
+        one of :data:`EARLIER_ROW_FIELDS` for a file an earlier version started.
+
+        Raises
+        ------
+        ValueError
+            If the file is not a sweep results file.
+        """
         if not self.path.is_file():
-            return
+            return ROW_FIELDS
         with self.path.open("rb") as handle:
             first = handle.readline(HEADER_BYTES)
         if not first:
-            return
+            return ROW_FIELDS
         try:
-            header = next(csv.reader([first.decode("utf-8").rstrip("\r\n")]), [])
+            header = tuple(next(csv.reader([first.decode("utf-8").rstrip("\r\n")]), []))
         except UnicodeDecodeError:
-            header = []
-        if tuple(header) != ROW_FIELDS:
+            header = ()
+        if header != ROW_FIELDS and header not in EARLIER_ROW_FIELDS:
             raise ValueError(
                 f"{self.path} is not a tomosim sweep results file (its columns differ); "
                 "it was left as it was; choose another --out"
             )
+        return header
 
     def repair(self) -> int:
         """Drop a trailing partial line left by a killed writer; returns rows kept.
@@ -206,10 +224,13 @@ class ResultsFile:
         return len(self.rows())
 
     def append(self, row: dict[str, Any]) -> None:
-        """Append one row (writing the header first into a new file)."""
+        """Append one row (writing the header first into a new file), in the file's own
+        columns (:meth:`columns`): a column an earlier version's file lacks is left out."""
         new = not self.path.is_file() or self.path.stat().st_size == 0
         buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=ROW_FIELDS, lineterminator="\n")
+        writer = csv.DictWriter(
+            buffer, fieldnames=self.columns(), lineterminator="\n", extrasaction="ignore"
+        )
         if new:
             writer.writeheader()
         writer.writerow(row)

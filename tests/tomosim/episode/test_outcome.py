@@ -101,7 +101,11 @@ def test_merge_statistics_count_what_the_merger_did() -> None:
     assert (stats.rounds, stats.estimates, stats.accepted, stats.confirmed) == (4, 4, 3, 2)
     assert (stats.wrong, stats.gross_wrong, stats.gross_wrong_confirmed) == (2, 1, 0)
     assert stats.first_link_step == 150 and stats.linked_robots == 2
+    assert stats.all_linked_step == 150  # both robots' maps in one group
     assert stats.rotation_error_deg_max == 90.0
+    three = metrics(rounds, [0.2, 0.5, 0.95])
+    three = replace(three, settings={**three.settings, "robots": 3})
+    assert three.merge_stats().all_linked_step is None  # robot 2 was never linked
 
 
 def test_time_to_target_curves_and_efficiency() -> None:

@@ -18,7 +18,7 @@ from tests.tomosim.commands.cli_support import assert_one_line_error
 from tomosim.cli import main
 from tomosim.episode import EpisodeConfig
 from tomosim.sweep import ROW_FIELDS, ResultsFile, SweepPlan, run_sweep
-from tomosim.sweep.rows import TIMING_FIELDS
+from tomosim.sweep.rows import EARLIER_ROW_FIELDS, TIMING_FIELDS
 from tomosim.team import CommsConfig, TeamConfig
 
 MERGE_INTERVAL = 40
@@ -159,6 +159,29 @@ def test_existing_results_need_resume_and_the_same_settings(tmp_path: Path) -> N
     for resume in (False, True):
         with pytest.raises(ValueError, match="steps_limit=7, not 120; choose another --out"):
             run_sweep(four_episodes(), theirs, resume=resume)
+
+
+def test_a_file_of_an_earlier_version_is_resumed_in_its_own_columns(tmp_path: Path) -> None:
+    # Written before the all_linked_step column: its rows stay whole, new rows leave the
+    # column out, so no row of the file claims its episode never linked all the maps.
+    out = tmp_path / "earlier.csv"
+    (earlier,) = EARLIER_ROW_FIELDS
+    plan = four_episodes()
+    first = plan.episodes()[0]
+    settings = {name: str(value) for name, value in plan.settings().items()}
+    out.write_text(",".join(earlier) + "\n")
+    ResultsFile(out).append({name: "" for name in ROW_FIELDS} | settings | {"key": first.key})
+    outcome = run_sweep(plan, out, workers=1, resume=True)
+    assert outcome.skipped == 1 and outcome.ran == 3
+    rows = ResultsFile(out).rows()
+    assert ResultsFile(out).columns() == earlier and len(rows) == 4
+    assert all("all_linked_step" not in row for row in rows)
+    fresh = tmp_path / "fresh.csv"
+    run_sweep(four_episodes(), fresh, workers=1)
+    assert ResultsFile(fresh).columns() == ROW_FIELDS
+    by_key = {row["key"]: row for row in ResultsFile(fresh).rows()}
+    assert {by_key[k]["first_link_step"] for k in by_key if "|none|" in k} == {""}
+    assert {by_key[k]["all_linked_step"] for k in by_key if "|none|" in k} == {""}
 
 
 def test_a_torn_last_line_is_dropped(tmp_path: Path) -> None:
