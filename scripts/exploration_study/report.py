@@ -398,11 +398,13 @@ def first_links_table(
     worlds: Sequence[StudyWorld], tables: dict[str, Table], policy: str, robots: int
 ) -> str:
     """Per episode on the generated floors: the step of the first round that linked two
-    maps, tomographic merger beside oracle, and the times to the target."""
+    maps and of the first that linked them all (``-``: never, or not in the results
+    file), tomographic merger beside oracle, and the times to the target."""
     lines = [
         "| world | seed | first link, tomographic [step] | first link, oracle [step] "
+        "| all linked, tomographic [step] | all linked, oracle [step] "
         "| no merging [s] | tomographic [s] | oracle [s] | tomographic / oracle |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for world in (w for w in worlds if w.generated and w.label in tables):
         table = tables[world.label]
@@ -411,15 +413,16 @@ def first_links_table(
         if tomo is None or oracle is None:
             continue
         links = [dict(zip(c.seeds, c.first_links, strict=True)) for c in (tomo, oracle)]
+        links += [dict(zip(c.seeds, c.all_links, strict=False)) for c in (tomo, oracle)]
         times = [dict(zip(c.seeds, c.times, strict=True)) if c is not None else {}
                  for c in (none, tomo, oracle)]  # fmt: skip
         cap = world.steps * 0.1
         for seed in sorted(set(tomo.seeds) & set(oracle.seeds)):
-            steps = [links[k].get(seed, math.nan) for k in range(2)]
+            steps = [links[k].get(seed, math.nan) for k in range(4)]
             shown = ["-" if math.isnan(v) else f"{v:.0f}" for v in steps]
             secs = [seconds(t.get(seed, math.nan), cap) for t in times]
             lines.append(
-                f"| {world.label} | {seed} | {shown[0]} | {shown[1]} | {' | '.join(secs)} "
+                f"| {world.label} | {seed} | {' | '.join(shown)} | {' | '.join(secs)} "
                 f"| {ratio(speedup(times[1][seed], times[2][seed]))} |"
             )
     return "\n".join(lines)

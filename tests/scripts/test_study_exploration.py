@@ -74,7 +74,10 @@ def test_the_oracle_figures_pair_episodes_and_show_first_links(study) -> None:
     links = "| 175 (150-200), 1 never | 100 (100-100) "
     assert f"{links}{links}| 0 |" in text
     each = report.first_links_table([floor], {floor.label: table}, "utility", 4)
-    assert "| floor0 | 2 | - | 100 | 120 | 70 | 60 | 1.17 |" in each.splitlines()
+    assert "| floor0 | 2 | - | 100 | - | 100 | 120 | 70 | 60 | 1.17 |" in each.splitlines()
+    unknown = summary.cells(THREE_METHODS)
+    each = report.first_links_table([floor], {floor.label: unknown}, "utility", 4)
+    assert "| floor0 | 0 | 150 | 100 | - | - | 100 | 60 | 50 | 1.20 |" in each.splitlines()
 
 
 def test_the_checks_hold_the_merger_to_the_projects_exploration_target(study) -> None:
