@@ -59,18 +59,8 @@ def test_the_summary_counts_first_right_acceptances_and_false_matches_per_thresh
     assert "| 0.95 | 0.0% | 0 |" in report
 
 
-@pytest.mark.parametrize(
-    ("argv", "said"),
-    [
-        (["--robots", "1"], "at least 2 robots"),
-        (["--workers", "0"], "at least 1"),
-        (["--team", "confirm_at_once_confidence=1.5"], "confirm_at_once_confidence"),
-    ],
-)
-def test_bad_arguments_are_refused_with_what_to_do(
-    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
-) -> None:
-    confidences = load_script("exploration_confidences")
+def test_workers_must_be_at_least_one(capsys: pytest.CaptureFixture[str]) -> None:
+    # The options both scripts share are tested in test_floor_episode_options.py.
     with pytest.raises(SystemExit) as stopped:
-        confidences.parse_args(argv)
-    assert stopped.value.code == 2 and said in capsys.readouterr().err
+        load_script("exploration_confidences").parse_args(["--workers", "0"])
+    assert stopped.value.code == 2 and "--workers 0: give at least 1" in capsys.readouterr().err

@@ -46,21 +46,3 @@ def test_the_summary_leaves_false_matches_out_and_says_so() -> None:
     assert "fit (a fraction) is at least the best fit's in 100.0% (" in report
     assert "as many walls on walls as the best fit in 100.0% (ratio: median 3.00" in report
     assert "| estimate against the truth | - |" in precision.summarise([false])
-
-
-@pytest.mark.parametrize(
-    ("argv", "said"),
-    [
-        (["--robots", "1"], "at least 2 robots"),
-        (["--steps", "0"], "at least 1"),
-        (["--team", "merger.confidence.acept=0.7"], "did you mean merger.confidence.accept"),
-        (["--team", "merger.confidence.accept"], "--team takes NAME=VALUE"),
-    ],
-)
-def test_bad_arguments_are_refused_with_what_to_do(
-    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
-) -> None:
-    precision = load_script("exploration_precision")
-    with pytest.raises(SystemExit) as stopped:
-        precision.parse_args(argv)
-    assert stopped.value.code == 2 and said in capsys.readouterr().err
