@@ -38,9 +38,11 @@ Usage::
     python scripts/study_exploration.py --worlds 0 --robots 4 --team confirmations=3 --out c3
 
 ``--team NAME=VALUE`` (repeatable) sets a team setting by its dotted name for
-every episode (:mod:`tomosim.team.overrides`; the default merger's are
-``merger.*``); the folder records them in ``team_settings.json`` and refuses
-to resume with others.
+every episode (:mod:`tomosim.team.overrides`); a setting only one method uses
+acts on that method's episodes: the default merger's ``merger.*``, the
+oracle's ``oracle_*`` (``--team oracle_min_shared_m2=10``: an oracle that
+waits until a pair's maps share 10 m²). The folder records them in
+``team_settings.json`` and refuses to resume with others.
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
 from merging.settings import parse_assignments
 from tomosim.commands import UsageError
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
+from tomosim.commands.team_options import check_methods_use
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
 from tomosim.team import TeamConfig
@@ -195,9 +198,11 @@ TEAM_FILE = "team_settings.json"
 """The file in ``--out`` naming the team settings its episodes ran with (none: the defaults)."""
 
 
-def study_team(pairs: list[str], out: Path) -> TeamConfig:
-    """The team ``--team`` asks for; :class:`UsageError` for a bad setting, or for a folder
-    whose episodes ran with other settings (resuming would mix two teams' rows)."""
+def study_team(pairs: list[str], out: Path, methods: list[str]) -> TeamConfig:
+    """The team ``--team`` asks for; :class:`UsageError` for a bad setting, one that none of
+    ``methods`` uses (``oracle_min_shared_m2`` without the oracle), or a folder whose
+    episodes ran with other settings (resuming would mix two teams' rows). A setting of
+    one method acts on that method's episodes only."""
     try:
         settings = parse_assignments(pairs, option="--team", example="confirmations=3")
     except ValueError as error:
@@ -208,6 +213,7 @@ def study_team(pairs: list[str], out: Path) -> TeamConfig:
         team = with_settings(TeamConfig(), settings)
     except ValueError as error:
         raise UsageError(f"--team: {error}") from None
+    check_methods_use(team, [m for m in methods if m != NO_MERGE], option="--methods")
     recorded = out / TEAM_FILE
     before = json.loads(recorded.read_text()) if recorded.is_file() else {}
     now = json.loads(json.dumps(changed_settings(team)))
@@ -256,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=OUTPUT, help="folder of the outputs")
     parser.add_argument("--report-only", action="store_true", help="run nothing, only report")
     args = parser.parse_args(argv)
-    team = study_team(args.team, args.out)
+    team = study_team(args.team, args.out, args.methods)
     if args.steps is not None and args.steps < 1:
         parser.error(f"--steps must be at least 1, got {args.steps}")
     unknown = [p for p in (*args.policies, args.policy) if p not in chooser_names()]

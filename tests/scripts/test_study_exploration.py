@@ -121,10 +121,13 @@ def test_team_settings_reach_the_episodes_and_a_folder_keeps_one_team(
     from tomosim.commands import UsageError
 
     script = load_script("study_exploration")
+    every_method = list(script.METHODS)
     from exploration_study.runs import plans
     from exploration_study.worlds import resolve
 
-    team = script.study_team(["merger.robust.margin=0.2", "confirmations=3"], tmp_path)
+    team = script.study_team(
+        ["merger.robust.margin=0.2", "confirmations=3"], tmp_path, every_method
+    )
     assert team.merger.robust.margin == 0.2 and team.confirmations == 3
     grid = script.Grid((4,), ("utility",), ("tomographic",), (0,), "utility", 5.0, team)
     (plan,) = plans(resolve("0", 20), grid)
@@ -132,22 +135,38 @@ def test_team_settings_reach_the_episodes_and_a_folder_keeps_one_team(
     assert plan.team.comms.range == 5.0  # the study's own range, over --team's
     script.record_team(team, tmp_path)
     (tmp_path / "episodes_floor0.csv").write_text("key\n")
-    assert script.study_team(["confirmations=3", "merger.robust.margin=0.2"], tmp_path) == team
+    assert (
+        script.study_team(["confirmations=3", "merger.robust.margin=0.2"], tmp_path, every_method)
+        == team
+    )
     with pytest.raises(UsageError, match="give another --out"):
-        script.study_team([], tmp_path)
+        script.study_team([], tmp_path, every_method)
     with pytest.raises(UsageError, match="--team: no team setting named 'confirm'"):
-        script.study_team(["confirm=3"], tmp_path / "new")
+        script.study_team(["confirm=3"], tmp_path / "new", every_method)
     with pytest.raises(UsageError, match="--comm-ranges"):
-        script.study_team(["comms.range=5"], tmp_path / "new")
+        script.study_team(["comms.range=5"], tmp_path / "new", every_method)
     # Every other team setting, those explore has options for included.
-    assert script.study_team(["merge_interval=25"], tmp_path / "new").merge_interval == 25
+    assert (
+        script.study_team(["merge_interval=25"], tmp_path / "new", every_method).merge_interval
+        == 25
+    )
+    # A setting of the oracle's acts on the oracle's episodes; without them it is refused.
+    waiting = script.study_team(["oracle_min_shared_m2=10"], tmp_path / "new", every_method)
+    grid = script.Grid(
+        (4,), ("utility",), ("tomographic", "oracle"), (0,), "utility", None, waiting
+    )
+    (plan,) = plans(resolve("0", 20), grid)
+    teams = {e.config.team.method: e.config.team for e in plan.episodes()}
+    assert teams["oracle"].oracle_min_shared_m2 == 10.0
+    with pytest.raises(UsageError, match="only the 'oracle' method uses it"):
+        script.study_team(["oracle_min_shared_m2=10"], tmp_path / "new", ["none", "tomographic"])
     # A run that recorded its settings but wrote no episode, then one with the defaults:
     # the folder says the defaults, and resuming it with the first settings is refused.
     empty = tmp_path / "empty"
     empty.mkdir()
     script.record_team(team, empty)
-    script.record_team(script.study_team([], empty), empty)
+    script.record_team(script.study_team([], empty, every_method), empty)
     (empty / "episodes_floor0.csv").write_text("key\n")
-    assert script.study_team([], empty) == script.TeamConfig()
+    assert script.study_team([], empty, every_method) == script.TeamConfig()
     with pytest.raises(UsageError, match="give another --out"):
-        script.study_team(["confirmations=3", "merger.robust.margin=0.2"], empty)
+        script.study_team(["confirmations=3", "merger.robust.margin=0.2"], empty, every_method)

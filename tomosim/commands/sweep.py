@@ -33,7 +33,7 @@ from tomosim.commands import (
 from tomosim.commands.explore import MAX_ROBOTS, check_episode_options
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
-from tomosim.commands.team_options import add_team_arguments, team_config
+from tomosim.commands.team_options import add_team_arguments, check_methods_use, team_config
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, WorkerDied, run_sweep
@@ -135,6 +135,8 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
         sides = " ".join(map(str, args.world_size))
         raise UsageError(f"--world-size must be two positive numbers of metres, got {sides}")
     check_episode_options(args)
+    team = team_config(args)
+    check_methods_use(team, [m for m in args.methods if m != NO_MERGE], option="--methods")
     if args.record_dir is not None and args.record_dir.exists() and not args.record_dir.is_dir():
         raise UsageError(f"--record-dir {args.record_dir} is a file; give a folder")
     try:
@@ -147,7 +149,7 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
             steps=args.steps,
             coverage_target=args.coverage_target,
             world_size=None if args.world_size is None else tuple(args.world_size),
-            team=team_config(args),
+            team=team,
             record_dir=args.record_dir,
         )
     except ValueError as exc:

@@ -16,12 +16,11 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from merging.api import DEFAULT_METHOD
-from merging.params import DEFAULT_PARAMS
 from merging.settings import parse_assignments
 from merging.validators import real_number, whole_number
 from tomosim.commands import UsageError
 from tomosim.team import CommsConfig, TeamConfig
+from tomosim.team.config import settings_for_other_methods
 from tomosim.team.overrides import with_settings
 
 DEFAULT_TEAM = TeamConfig()
@@ -83,13 +82,25 @@ def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
         team = with_settings(team, settings)
     except ValueError as error:
         raise UsageError(f"--team: {error}" if settings else str(error)) from None
-    method = fields.get("method", DEFAULT_METHOD)
-    if method != DEFAULT_METHOD and team.merger != DEFAULT_PARAMS:
-        raise UsageError(
-            f"--team merger.*: the {method!r} method takes no merger settings; they set "
-            f"the {DEFAULT_METHOD!r} method's"
-        )
+    if "method" in fields:
+        check_methods_use(team, [fields["method"]], option="--method")
     return team
+
+
+def check_methods_use(team: TeamConfig, methods: list[str], *, option: str) -> None:
+    """:class:`UsageError` when ``team`` changes a setting that only a method not among
+    ``methods`` uses (:func:`tomosim.team.config.settings_for_other_methods`), naming
+    ``option``, the option that chose the methods."""
+    unused = settings_for_other_methods(team, methods)
+    if not unused:
+        return
+    name, needs = next(iter(unused.items()))
+    shown = f"{name}.*" if name == "merger" else name
+    chosen = " ".join(methods)
+    raise UsageError(
+        f"--team {shown}: only the {needs!r} method uses it, and {option} {chosen} does "
+        f"not run it; drop the setting or merge with {needs!r}"
+    )
 
 
 OWN_OPTIONS = {

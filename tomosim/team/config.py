@@ -19,6 +19,7 @@ that a bad value is refused where it is given, naming it.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 
 from merging.api import DEFAULT_METHOD
@@ -166,7 +167,10 @@ class TeamConfig:
         second robot's start position) and still confirm each other; same
         reasoning.
     oracle_error_deg, oracle_error_m : float
-        With ``method="oracle"``: each pair's true transform turned by this
+        Used by ``method="oracle"`` only (as ``merger`` by the default method
+        only, so that a sweep over both methods carries both's settings;
+        :func:`settings_for_other_methods`, by which the commands refuse them
+        for a run that has no oracle): each pair's true transform turned by this
         many degrees and its second robot's start moved by this many metres,
         a fixed error per pair (its direction drawn from the pair's robots),
         the same every round (0, 0: exact). An oracle as accurate as a merger
@@ -175,7 +179,7 @@ class TeamConfig:
         (the merger's typical one) moves single episodes' time to 90 % by
         as much as the merger does (docs/benchmarks/exploration.md).
     oracle_min_shared_m2 : float
-        With ``method="oracle"``: square metres of free space two robots' maps
+        Used by ``method="oracle"`` only: square metres of free space two robots' maps
         must share (under the true transform) before the oracle accepts their
         pair (0: at once, whatever the maps hold). A merger working from the
         grids links a pair only once its maps overlap; an oracle held to that
@@ -251,16 +255,6 @@ class TeamConfig:
         real_number(
             self.oracle_min_shared_m2, "oracle_min_shared_m2", low=0.0, unit="square metres"
         )
-        if (self.oracle_error_deg or self.oracle_error_m) and self.method != ORACLE:
-            raise ValueError(
-                "oracle_error_deg and oracle_error_m perturb the oracle's transforms; they "
-                f"need method={ORACLE!r}, got method={self.method!r}"
-            )
-        if self.oracle_min_shared_m2 and self.method != ORACLE:
-            raise ValueError(
-                "oracle_min_shared_m2 holds the oracle back until the maps overlap; it "
-                f"needs method={ORACLE!r}, got method={self.method!r}"
-            )
         for name, kind in (
             ("tracker", TrackingParams),
             ("merger", TomographicParams),
@@ -278,3 +272,30 @@ class TeamConfig:
         """The keyword arguments a global search of :attr:`method` takes from the team:
         ``params=`` :attr:`merger` for the default method, none for the others."""
         return {"params": self.merger} if self.method == DEFAULT_METHOD else {}
+
+
+METHOD_SETTINGS: dict[str, str] = {
+    "merger": DEFAULT_METHOD,
+    "oracle_error_deg": ORACLE,
+    "oracle_error_m": ORACLE,
+    "oracle_min_shared_m2": ORACLE,
+}
+"""The fields of :class:`TeamConfig` that only one merging method uses, and that method."""
+
+
+def settings_for_other_methods(team: TeamConfig, methods: Iterable[str]) -> dict[str, str]:
+    """The fields of :data:`METHOD_SETTINGS` that ``team`` changes from the defaults for a
+    method none of ``methods`` is, each with the method that uses it (empty: none).
+
+    A team carries every method's settings, each used by its own method only: a sweep
+    over the tomographic method and the oracle can set both's. A changed setting that
+    no method of a run uses is a mistake the commands refuse
+    (:mod:`tomosim.commands.team_options`).
+    """
+    default = TeamConfig()
+    wanted = set(methods)
+    return {
+        name: method
+        for name, method in METHOD_SETTINGS.items()
+        if method not in wanted and getattr(team, name) != getattr(default, name)
+    }

@@ -20,6 +20,7 @@ from tomosim.team import (
     true_relative,
 )
 from tomosim.team.comms import blocked
+from tomosim.team.config import settings_for_other_methods
 from tomosim.worlds import World, generate_floorplan
 
 EXACT = 1e-9
@@ -145,8 +146,6 @@ def test_an_oracle_waiting_for_overlap_refuses_pairs_that_share_too_little(
     assert blocked_session.last_merge is not None
     assert not any(p.accepted for p in blocked_session.last_merge.pairs)
     with pytest.raises(ValueError, match="oracle_min_shared_m2"):
-        TeamConfig(oracle_min_shared_m2=5.0)
-    with pytest.raises(ValueError, match="oracle_min_shared_m2"):
         TeamConfig(method=ORACLE, oracle_min_shared_m2=-1.0)
 
 
@@ -155,8 +154,17 @@ def test_the_oracles_error_is_validated() -> None:
         TeamConfig(method=ORACLE, oracle_error_m=-0.1)
     with pytest.raises(ValueError, match="error_deg"):
         oracle_estimator(np.zeros((2, 3)), error_deg=float("nan"))
-    with pytest.raises(ValueError, match="need method='oracle'"):
-        TeamConfig(oracle_error_deg=0.4)
+
+
+def test_the_oracles_settings_are_carried_by_any_team_and_used_by_the_oracle_only() -> None:
+    # A sweep over the merger and the oracle carries both's settings in one team.
+    team = TeamConfig(oracle_error_deg=0.4, oracle_min_shared_m2=5.0)
+    assert settings_for_other_methods(team, ["tomographic"]) == {
+        "oracle_error_deg": ORACLE,
+        "oracle_min_shared_m2": ORACLE,
+    }
+    assert settings_for_other_methods(team, ["tomographic", ORACLE]) == {}
+    assert settings_for_other_methods(TeamConfig(), ["spectral"]) == {}
 
 
 def test_the_oracle_needs_start_poses_and_is_a_team_method() -> None:

@@ -66,4 +66,18 @@ def test_the_command_line_sets_team_settings_by_name(capsys) -> None:
         capsys,
     )
     assert status == 2
-    assert_one_line_error(err, "the 'spectral' method takes no merger settings")
+    assert_one_line_error(
+        err, "--team merger.*: only the 'tomographic' method uses it", "--method spectral"
+    )
+    status, _, err = run(
+        ["explore", "--team", "oracle_min_shared_m2=10", "--no-record"],
+        capsys,
+    )
+    assert status == 2
+    assert_one_line_error(err, "--team oracle_min_shared_m2: only the 'oracle' method uses it")
+    status, _, err = run(
+        ["sweep", "--methods", "tomographic", "none", "--team", "oracle_error_m=0.1", "--out", "x"],
+        capsys,
+    )
+    assert status == 2
+    assert_one_line_error(err, "--team oracle_error_m", "--methods tomographic does not run it")
