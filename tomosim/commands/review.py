@@ -5,7 +5,8 @@ The command prints the merge-quality timeline (per merge round and pair: the
 confidence, whether the merger accepted and confirmed the estimate and whether
 the round's linking used it, and the errors of accepted estimates against the
 simulator's truth, with the merged map's agreement with the truth), then the
-final figures (with the step at which a round first linked two maps), and
+final figures (with the steps at which a round first linked two maps and first
+linked every robot's map into one), and
 writes a PNG:
 the final merged map beside the ground truth, the error curves and the
 coverage curve (``--png``, default ``RUN_summary.png`` beside the recording).
@@ -78,6 +79,47 @@ def first_link_step(rounds: list[dict[str, Any]]) -> int | None:
     return None
 
 
+def all_linked_step(rounds: list[dict[str, Any]], robots: int | None) -> int | None:
+    """The first round of :func:`timeline` whose used pairs link all ``robots`` maps into
+    one (``all_linked_step`` of the episode's merge figures); None when no round did,
+    when the recording does not say which pairs were used, or for a team of one.
+
+    The linking of a round is a forest of the pairs it used, so its maps form one group
+    exactly when those pairs join every robot (``robots``: the run's setting; without
+    it, the robots the pairs' names count).
+    """
+    named = [pair_robots(name) for merge in rounds for name in merge["pairs"]]
+    if robots is None:
+        robots = 1 + max((k for pair in named if pair for k in pair), default=0)
+    if robots < 2:
+        return None
+    for merge in rounds:
+        used = [pair_robots(name) for name, pair in merge["pairs"].items() if pair.get("used")]
+        if _joined([ends for ends in used if ends and max(ends) < robots], robots):
+            return int(merge["step"])
+    return None
+
+
+def _joined(links: list[tuple[int, int]], robots: int) -> bool:
+    """Whether ``links`` (pairs of robots) join robots ``0 .. robots - 1`` into one group."""
+    group = list(range(robots))
+
+    def root(k: int) -> int:
+        while group[k] != k:
+            k = group[k]
+        return k
+
+    for first, second in links:
+        group[root(first)] = root(second)
+    return len({root(k) for k in range(robots)}) == 1
+
+
+def pair_robots(name: str) -> tuple[int, int] | None:
+    """The robots of a pair named ``rI-rJ`` (None for a name of another form)."""
+    first, second, rest = pair_order(name)
+    return None if rest else (int(first), int(second))
+
+
 def timeline(run: RecordedRun) -> list[dict[str, Any]]:
     """Per merge round: its step, the merged map's agreement and each pair's figures."""
     agreement = run.series.get(AGREEMENT)
@@ -145,7 +187,14 @@ def summary(run: RecordedRun) -> dict[str, Any]:
         "exploration": recorded_figures(run),
         "merges": rounds,
         "first_link_step": first_link_step(rounds),
+        "all_linked_step": all_linked_step(rounds, _robots(run.settings)),
     }
+
+
+def _robots(settings: dict[str, Any]) -> int | None:
+    """The run's team size, when its settings say it."""
+    value = settings.get("robots") if settings else None
+    return int(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
 def _used(pair: dict[str, Any]) -> str:
@@ -207,6 +256,8 @@ def render(report: dict[str, Any]) -> str:
         lines.append(f"{'merges':<16}{accepted} of {len(rows)} pair estimates accepted")
         if report["first_link_step"] is not None:
             lines.append(f"{'first link':<16}step {report['first_link_step']}")
+        if report.get("all_linked_step") is not None:
+            lines.append(f"{'all linked':<16}step {report['all_linked_step']}")
         lines += ["", pair_table(summarise_pairs(rows))]
     return "\n".join(lines)
 

@@ -81,6 +81,7 @@ def test_review_reads_back_what_explore_reported(
             else:
                 assert "rotation_error_deg" not in back
     assert review["first_link_step"] == report["merge_stats"]["first_link_step"]
+    assert review["all_linked_step"] == report["merge_stats"]["all_linked_step"]
     figures = review["exploration"]
     assert figures["path_length_m"] == pytest.approx(report["path_length_m"])
     assert figures["overlap_rate"] == pytest.approx(report["overlap_rate"])
@@ -120,6 +121,30 @@ def test_review_names_the_first_round_that_used_a_link(explored: tuple[Path, dic
     assert f"{'first link':<16}step {linked['step']}" in text
     row = next(line for line in text.splitlines() if line.startswith(f"{linked['step']:>6}  r0-r1"))
     assert row.split()[5] == "yes"  # step, pair, confidence, accepted, confirmed, used
+
+
+def test_review_names_the_first_round_whose_links_join_every_robot(
+    explored: tuple[Path, dict],
+) -> None:
+    def rounds(*used: tuple[str, ...]) -> list[dict]:
+        names = ("r0-r1", "r0-r2", "r1-r2", "r2-r3")
+        return [
+            {"step": 10 * (k + 1), "pairs": {n: {"used": n in names_used} for n in names}}
+            for k, names_used in enumerate(used)
+        ]
+
+    # Two pairs of robots linked apart, then joined; then a round that lost a link.
+    timeline = rounds(("r0-r1",), ("r0-r1", "r2-r3"), ("r0-r1", "r1-r2", "r2-r3"), ("r0-r1",))
+    assert review.all_linked_step(timeline, 4) == 30
+    assert review.all_linked_step(timeline, None) == 30  # four robots, by the pairs' names
+    assert review.all_linked_step(timeline, 5) is None  # robot 4 never linked
+    assert review.all_linked_step(timeline[:2], 4) is None
+    assert review.all_linked_step(timeline, 1) is None
+    report = review.summary(read_recording(explored[0]))
+    report["all_linked_step"] = 30
+    assert f"{'all linked':<16}step 30" in review.render(report)
+    report["all_linked_step"] = None
+    assert "all linked" not in review.render(report)
 
 
 def test_review_of_a_recording_without_the_linking_s_choice_says_it_does_not_know(
