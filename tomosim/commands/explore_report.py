@@ -152,8 +152,11 @@ def render_summary(metrics: EpisodeMetrics) -> str:
         used = sum(1 for merge in metrics.merges for p in merge.pairs if p.used)
         last = metrics.merges[-1]
         merged = ", ".join(f"r{k}" for k in last.merged_robots)
-        first = metrics.merge_stats().first_link_step
+        stats = metrics.merge_stats()
+        first, whole = stats.first_link_step, stats.all_linked_step
         since = "" if first is None else f"; first link at step {first}"
+        if whole is not None and whole != first:
+            since += f", all linked at step {whole}"
         if first is not None and len(last.merged_robots) == 1:
             since += ", none held at the last round"
         lines += [

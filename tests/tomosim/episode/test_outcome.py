@@ -145,3 +145,12 @@ def test_summary_says_when_no_link_held_at_the_end() -> None:
             line for line in render_summary(episode).splitlines() if line.startswith("merged")
         ]
         assert expected in merged
+    # A team of three: the third map joins later, and the line names that round too.
+    three = {**settings, "robots": 3}
+    rounds = [
+        MergeRound(100, (linked,), (0, 1), 0.9, 0.1),
+        MergeRound(150, (linked, linked), (0, 1, 2), 0.9, 0.1),
+    ]
+    episode = replace(metrics(rounds, [0.2, 0.5, 0.95]), settings=three)
+    [merged] = [line for line in render_summary(episode).splitlines() if line.startswith("merged")]
+    assert "r0, r1, r2; first link at step 100, all linked at step 150;" in merged
