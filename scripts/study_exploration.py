@@ -213,7 +213,8 @@ def study_team(pairs: list[str], out: Path, methods: list[str]) -> TeamConfig:
         team = with_settings(TeamConfig(), settings)
     except ValueError as error:
         raise UsageError(f"--team: {error}") from None
-    check_methods_use(team, [m for m in methods if m != NO_MERGE], option="--methods")
+    merging = [m for m in methods if m != NO_MERGE]
+    check_methods_use(team, merging, chosen=f"--methods {' '.join(methods)}")
     recorded = out / TEAM_FILE
     before = json.loads(recorded.read_text()) if recorded.is_file() else {}
     now = json.loads(json.dumps(changed_settings(team)))

@@ -136,7 +136,8 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
         raise UsageError(f"--world-size must be two positive numbers of metres, got {sides}")
     check_episode_options(args)
     team = team_config(args)
-    check_methods_use(team, [m for m in args.methods if m != NO_MERGE], option="--methods")
+    merging = [m for m in args.methods if m != NO_MERGE]
+    check_methods_use(team, merging, chosen=f"--methods {' '.join(args.methods)}")
     if args.record_dir is not None and args.record_dir.exists() and not args.record_dir.is_dir():
         raise UsageError(f"--record-dir {args.record_dir} is a file; give a folder")
     try:

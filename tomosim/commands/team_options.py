@@ -83,23 +83,26 @@ def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
     except ValueError as error:
         raise UsageError(f"--team: {error}" if settings else str(error)) from None
     if "method" in fields:
-        check_methods_use(team, [fields["method"]], option="--method")
+        merging = fields.get("merge", True)
+        methods = [fields["method"]] if merging else []
+        check_methods_use(
+            team, methods, chosen=f"--method {fields['method']}" if merging else "--no-merge"
+        )
     return team
 
 
-def check_methods_use(team: TeamConfig, methods: list[str], *, option: str) -> None:
+def check_methods_use(team: TeamConfig, methods: list[str], *, chosen: str) -> None:
     """:class:`UsageError` when ``team`` changes a setting that only a method not among
-    ``methods`` uses (:func:`tomosim.team.config.settings_for_other_methods`), naming
-    ``option``, the option that chose the methods."""
+    ``methods`` uses (:func:`tomosim.team.config.settings_for_other_methods`); ``chosen``
+    names the options that chose the methods (``--methods tomographic none``)."""
     unused = settings_for_other_methods(team, methods)
     if not unused:
         return
     name, needs = next(iter(unused.items()))
     shown = f"{name}.*" if name == "merger" else name
-    chosen = " ".join(methods)
     raise UsageError(
-        f"--team {shown}: only the {needs!r} method uses it, and {option} {chosen} does "
-        f"not run it; drop the setting or merge with {needs!r}"
+        f"--team {shown}: only the {needs!r} method uses it, and {chosen} does not run "
+        f"it; drop the setting or merge with {needs!r}"
     )
 
 

@@ -80,4 +80,9 @@ def test_the_command_line_sets_team_settings_by_name(capsys) -> None:
         capsys,
     )
     assert status == 2
-    assert_one_line_error(err, "--team oracle_error_m", "--methods tomographic does not run it")
+    assert_one_line_error(err, "--team oracle_error_m", "--methods tomographic none does not")
+    status, _, err = run(
+        ["explore", "--no-merge", "--team", "merger.robust.margin=0.2", "--no-record"], capsys
+    )
+    assert status == 2
+    assert_one_line_error(err, "--team merger.*", "--no-merge does not run it")
