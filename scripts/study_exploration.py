@@ -68,12 +68,13 @@ from exploration_study.summary import ORACLE, TOMOGRAPHIC, cells
 from exploration_study.worlds import DEFAULT_WORLDS, StudyWorld, resolve
 
 from merging.settings import parse_assignments
+from merging.validators import one_of
 from tomosim.commands import UsageError
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
 from tomosim.commands.team_options import check_methods_use
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
-from tomosim.team import TeamConfig
+from tomosim.team import TeamConfig, team_methods
 from tomosim.team.overrides import changed_settings, with_settings
 
 OUTPUT = Path(__file__).resolve().parents[1] / "docs" / "figures" / "study_exploration"
@@ -213,8 +214,17 @@ def study_team(pairs: list[str], out: Path, methods: list[str]) -> TeamConfig:
         team = with_settings(TeamConfig(), settings)
     except ValueError as error:
         raise UsageError(f"--team: {error}") from None
-    merging = [m for m in methods if m != NO_MERGE]
-    check_methods_use(team, merging, chosen=f"--methods {' '.join(methods)}")
+    try:
+        for method in methods:
+            one_of(method, (*team_methods(), NO_MERGE), what="merging method")
+    except ValueError as error:
+        raise UsageError(f"--methods: {error}") from None
+    check_methods_use(
+        team,
+        [m for m in methods if m != NO_MERGE],
+        chosen=f"--methods {' '.join(methods)}",
+        fix="add {method} to --methods",
+    )
     recorded = out / TEAM_FILE
     before = json.loads(recorded.read_text()) if recorded.is_file() else {}
     now = json.loads(json.dumps(changed_settings(team)))

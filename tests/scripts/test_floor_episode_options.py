@@ -14,6 +14,7 @@ REFUSED = [
     (["--team", "merger.confidence.acept=0.7"], "did you mean merger.confidence.accept"),
     (["--team", "merger.confidence.accept"], "--team takes NAME=VALUE"),
     (["--team", "confirm_at_once_confidence=1.5"], "confirm_at_once_confidence"),
+    (["--team", "oracle_min_shared_m2=10"], "only the 'oracle' method uses it"),
 ]
 
 

@@ -14,6 +14,8 @@ import argparse
 from collections.abc import Sequence
 
 from merging.settings import parse_assignments
+from tomosim.commands import UsageError
+from tomosim.commands.team_options import check_methods_use
 from tomosim.episode import EpisodeConfig
 from tomosim.team import TeamConfig
 from tomosim.team.overrides import with_settings
@@ -57,6 +59,16 @@ def check_floor_episode_arguments(
         )
     except ValueError as error:
         parser.error(f"--team: {error}")
+    team: TeamConfig = args.team
+    try:
+        check_methods_use(
+            team,
+            [team.method] if team.merge else [],
+            chosen=f"--team method={team.method}" if team.merge else "--team merge=false",
+            fix="set --team method={method}",
+        )
+    except UsageError as error:
+        parser.error(str(error))
     if args.robots < 2:
         parser.error(f"--robots {args.robots}: a pair needs at least 2 robots")
     if args.steps < 1:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -116,8 +117,8 @@ def _joined(links: list[tuple[int, int]], robots: int) -> bool:
 
 def pair_robots(name: str) -> tuple[int, int] | None:
     """The robots of a pair named ``rI-rJ`` (None for a name of another form)."""
-    first, second, rest = pair_order(name)
-    return None if rest else (int(first), int(second))
+    numbers = re.fullmatch(r"r(\d+)-r(\d+)", name)
+    return None if numbers is None else (int(numbers[1]), int(numbers[2]))
 
 
 def timeline(run: RecordedRun) -> list[dict[str, Any]]:

@@ -136,12 +136,10 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
         raise UsageError(f"--world-size must be two positive numbers of metres, got {sides}")
     check_episode_options(args)
     team = team_config(args)
-    merging = [m for m in args.methods if m != NO_MERGE]
-    check_methods_use(team, merging, chosen=f"--methods {' '.join(args.methods)}")
     if args.record_dir is not None and args.record_dir.exists() and not args.record_dir.is_dir():
         raise UsageError(f"--record-dir {args.record_dir} is a file; give a folder")
     try:
-        return SweepPlan(
+        plan = SweepPlan(
             worlds=tuple(args.worlds),
             robots=tuple(args.robots),
             policies=tuple(args.policies),
@@ -155,6 +153,14 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
         )
     except ValueError as exc:
         raise UsageError(one_line(exc)) from exc
+    # After the plan has checked the method names, so that a misspelt one is named as such.
+    check_methods_use(
+        team,
+        [m for m in plan.methods if m != NO_MERGE],
+        chosen=f"--methods {' '.join(plan.methods)}",
+        fix="add {method} to --methods",
+    )
+    return plan
 
 
 def run(args: argparse.Namespace) -> int:

@@ -83,26 +83,34 @@ def team_config(args: argparse.Namespace, **fields: Any) -> TeamConfig:
     except ValueError as error:
         raise UsageError(f"--team: {error}" if settings else str(error)) from None
     if "method" in fields:
+        method = fields["method"]
+        default = " (the default)" if method == DEFAULT_TEAM.method else ""
         merging = fields.get("merge", True)
-        methods = [fields["method"]] if merging else []
         check_methods_use(
-            team, methods, chosen=f"--method {fields['method']}" if merging else "--no-merge"
+            team,
+            [method] if merging else [],
+            chosen=f"--method {method}{default}" if merging else "--no-merge",
+            fix="give --method {method}",
         )
     return team
 
 
-def check_methods_use(team: TeamConfig, methods: list[str], *, chosen: str) -> None:
+def check_methods_use(team: TeamConfig, methods: list[str], *, chosen: str, fix: str) -> None:
     """:class:`UsageError` when ``team`` changes a setting that only a method not among
-    ``methods`` uses (:func:`tomosim.team.config.settings_for_other_methods`); ``chosen``
-    names the options that chose the methods (``--methods tomographic none``)."""
+    ``methods`` uses (:func:`tomosim.team.config.settings_for_other_methods`).
+
+    ``chosen`` names the options that chose the methods (``--methods tomographic
+    none``), ``fix`` how to run the method that uses the setting (``{method}`` stands
+    for its name: ``add {method} to --methods``).
+    """
     unused = settings_for_other_methods(team, methods)
     if not unused:
         return
     name, needs = next(iter(unused.items()))
-    shown = f"{name}.*" if name == "merger" else name
+    shown = f"{name}.*" if name in ("merger", "tracker") else name
     raise UsageError(
         f"--team {shown}: only the {needs!r} method uses it, and {chosen} does not run "
-        f"it; drop the setting or merge with {needs!r}"
+        f"it; drop the setting or {fix.format(method=needs)}"
     )
 
 

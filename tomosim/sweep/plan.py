@@ -13,6 +13,7 @@ from merging.validators import SettingTypeError, one_of, whole_number
 from tomosim.episode import DEFAULT_COVERAGE_TARGET, DEFAULT_WORLD_SEED, EpisodeConfig
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.team import TeamConfig, team_methods
+from tomosim.team.config import for_method
 from tomosim.worlds import FloorplanConfig
 
 NO_MERGE = "none"
@@ -149,7 +150,7 @@ class SweepPlan:
             steps=self.steps,
             coverage_target=self.coverage_target,
             seed=seed,
-            team=replace(self.team, merge=merge, method=method if merge else TeamConfig.method),
+            team=for_method(self.team, method if merge else TeamConfig.method, merge=merge),
         )
         if self.record_dir is not None:
             config = replace(config, record=self.record_dir / recording_name(key))

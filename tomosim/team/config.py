@@ -275,6 +275,8 @@ class TeamConfig:
 
 
 METHOD_SETTINGS: dict[str, str] = {
+    "tracking": DEFAULT_METHOD,
+    "tracker": DEFAULT_METHOD,
     "merger": DEFAULT_METHOD,
     "oracle_error_deg": ORACLE,
     "oracle_error_m": ORACLE,
@@ -299,3 +301,21 @@ def settings_for_other_methods(team: TeamConfig, methods: Iterable[str]) -> dict
         for name, method in METHOD_SETTINGS.items()
         if method not in wanted and getattr(team, name) != getattr(default, name)
     }
+
+
+def for_method(team: TeamConfig, method: str, *, merge: bool = True) -> TeamConfig:
+    """``team`` merging with ``method`` (``merge=False``: not at all), the settings of
+    :data:`METHOD_SETTINGS` that another method uses back at their defaults.
+
+    What an episode of a sweep runs with: a sweep over several methods carries each
+    one's settings in one team, and an episode's recorded settings then name only
+    those its own method used.
+    """
+    default = TeamConfig()
+    used = method if merge else None
+    reset = {
+        name: getattr(default, name)
+        for name, owner in METHOD_SETTINGS.items()
+        if owner != used and getattr(team, name) != getattr(default, name)
+    }
+    return replace(team, merge=merge, method=method, **reset)

@@ -123,6 +123,21 @@ def test_review_names_the_first_round_that_used_a_link(explored: tuple[Path, dic
     assert row.split()[5] == "yes"  # step, pair, confidence, accepted, confirmed, used
 
 
+@pytest.mark.slow
+def test_review_finds_the_round_that_linked_all_three_maps(tmp_path: Path) -> None:
+    """On the default world the third map joins after the first link (the README's run):
+    review reads the round from the recording as the run counted it."""
+    record = tmp_path / "three.rrd"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["explore", "--steps", "400", "--record", str(record), "--json"]) == 0
+    stats = json.loads(out.getvalue())["merge_stats"]
+    assert stats["first_link_step"] < stats["all_linked_step"]
+    back = review.summary(read_recording(record))
+    assert back["all_linked_step"] == stats["all_linked_step"]
+    assert back["first_link_step"] == stats["first_link_step"]
+
+
 def test_review_names_the_first_round_whose_links_join_every_robot(
     explored: tuple[Path, dict],
 ) -> None:

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from merging.grid import OccupancyGrid
+from merging.params import DEFAULT_PARAMS
 from tomosim.frames import frame_errors, pose_matrix
+from tomosim.sweep import SweepPlan
 from tomosim.team import (
     ORACLE,
     CommsConfig,
@@ -20,7 +24,7 @@ from tomosim.team import (
     true_relative,
 )
 from tomosim.team.comms import blocked
-from tomosim.team.config import settings_for_other_methods
+from tomosim.team.config import for_method, settings_for_other_methods
 from tomosim.worlds import World, generate_floorplan
 
 EXACT = 1e-9
@@ -165,6 +169,21 @@ def test_the_oracles_settings_are_carried_by_any_team_and_used_by_the_oracle_onl
     }
     assert settings_for_other_methods(team, ["tomographic", ORACLE]) == {}
     assert settings_for_other_methods(TeamConfig(), ["spectral"]) == {}
+
+
+def test_a_sweeps_episode_keeps_only_its_own_methods_settings() -> None:
+    margin = replace(DEFAULT_PARAMS, robust=replace(DEFAULT_PARAMS.robust, margin=0.2))
+    team = TeamConfig(oracle_min_shared_m2=5.0, merger=margin, confirmations=3)
+    plan = SweepPlan(methods=("tomographic", ORACLE, "none"), team=team)
+    teams = {
+        e.config.team.method if e.config.team.merge else "none": e.config.team
+        for e in plan.episodes()
+    }
+    assert teams["tomographic"].merger == margin and teams["tomographic"].oracle_min_shared_m2 == 0
+    assert teams[ORACLE].oracle_min_shared_m2 == 5.0 and teams[ORACLE].merger == DEFAULT_PARAMS
+    assert teams["none"] == replace(TeamConfig(confirmations=3), merge=False)
+    assert all(t.confirmations == 3 for t in teams.values())  # every method's settings stay
+    assert for_method(team, ORACLE) == replace(team, method=ORACLE, merger=DEFAULT_PARAMS)
 
 
 def test_the_oracle_needs_start_poses_and_is_a_team_method() -> None:

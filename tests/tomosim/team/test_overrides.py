@@ -80,7 +80,14 @@ def test_the_command_line_sets_team_settings_by_name(capsys) -> None:
         capsys,
     )
     assert status == 2
-    assert_one_line_error(err, "--team oracle_error_m", "--methods tomographic none does not")
+    assert_one_line_error(
+        err, "--team oracle_error_m", "--methods tomographic none does not", "add oracle to"
+    )
+    status, _, err = run(
+        ["sweep", "--methods", "oracel", "--team", "oracle_error_m=0.1", "--out", "x"], capsys
+    )
+    assert status == 2
+    assert_one_line_error(err, "unknown merging method 'oracel'")
     status, _, err = run(
         ["explore", "--no-merge", "--team", "merger.robust.margin=0.2", "--no-record"], capsys
     )
