@@ -164,6 +164,13 @@ def plot_summary(run: RecordedRun, report: dict[str, Any], path: Path) -> None:
     target = run.settings.get("coverage_target")
     if isinstance(target, float) and math.isfinite(target):
         ax.axhline(target, color="grey", ls="--", lw=0.8, label=f"coverage target {target:g}")
+    for key, label, style in (
+        ("first_link_step", "first link", ":"),
+        ("all_linked_step", "all linked", "-."),
+    ):
+        step = report.get(key)
+        if step is not None:
+            ax.axvline(step, color="0.3", ls=style, lw=0.9, label=f"{label}, step {step}")
     ax.set_ylim(0, 1.02)
     ax.set_xlabel("step")
     ax.set_title("coverage and agreement with the truth", fontsize=10)

@@ -133,9 +133,14 @@ def test_review_finds_the_round_that_linked_all_three_maps(tmp_path: Path) -> No
         assert main(["explore", "--steps", "400", "--record", str(record), "--json"]) == 0
     stats = json.loads(out.getvalue())["merge_stats"]
     assert stats["first_link_step"] < stats["all_linked_step"]
-    back = review.summary(read_recording(record))
+    recorded = read_recording(record)
+    back = review.summary(recorded)
     assert back["all_linked_step"] == stats["all_linked_step"]
     assert back["first_link_step"] == stats["first_link_step"]
+    from tomosim.commands.review_plot import plot_summary  # the two steps marked in the PNG
+
+    plot_summary(recorded, back, tmp_path / "three.png")
+    assert (tmp_path / "three.png").read_bytes()[:8] == PNG_SIGNATURE
 
 
 def test_review_names_the_first_round_whose_links_join_every_robot(
