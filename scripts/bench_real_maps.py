@@ -151,6 +151,9 @@ class Row:
     cpu_seconds: float
     from_default_cells: float
     reason: str
+    stages: str = ""
+    """The default method's milliseconds per step of its search (``MergeResult.timings``
+    but the total), ``name=ms`` joined by ``;``; empty for the other methods."""
 
 
 def available(methods: list[str]) -> list[str]:
@@ -280,13 +283,48 @@ def run(cases: Iterator[Case], methods: list[str], seed: int, writer, handle,
             row = Row(case.suite, case.group, case.name, method, round(rms, 3),
                       round(case.tolerance, 2), right, result.accepted,
                       round(result.confidence, 4), round(seconds, 4), round(cpu_seconds, 4),
-                      round(from_default, 3), result.reason)  # fmt: skip
+                      round(from_default, 3), result.reason,
+                      stage_text(result.timings) if method == DEFAULT_METHOD else "")  # fmt: skip
             rows.append(row)
             writer.writerow(asdict(row))
             handle.flush()
         print(f"  {case.suite}: {count} pairs ({case.name})", end="\r", file=sys.stderr)
     print(file=sys.stderr)
     return rows
+
+
+def stage_text(timings: dict[str, float]) -> str:
+    """``timings`` (seconds by step) as a row's ``stages``: ``name=ms;...``, the total left out."""
+    return ";".join(f"{name}={1000 * value:.2f}" for name, value in timings.items()
+                    if name != "total")  # fmt: skip
+
+
+def stages_table(rows: list[Row]) -> list[str]:
+    """Where the default method's time goes: per step of its search, the pairs it ran on,
+    its median milliseconds on those and its mean over every pair (what it adds to a
+    pair's time); empty without the default's rows."""
+    steps: dict[str, list[float]] = {}
+    pairs = 0
+    for row in rows:
+        if row.method != DEFAULT_METHOD or not row.stages:
+            continue
+        pairs += 1
+        for item in row.stages.split(";"):
+            name, value = item.split("=")
+            steps.setdefault(name, []).append(float(value))
+    if not pairs:
+        return []
+    lines = [
+        "",
+        f"Where the default's time goes ({pairs} pairs; milliseconds):",
+        "",
+        "| step | pairs it ran on | median where it ran | mean per pair |",
+        "|---|---|---|---|",
+    ]
+    for name, values in steps.items():
+        lines.append(f"| {name} | {len(values)} | {np.median(values):.1f} | "
+                     f"{sum(values) / pairs:.1f} |")  # fmt: skip
+    return lines
 
 
 ALL_PAIRS = "all pairs"
@@ -455,7 +493,8 @@ def main(argv: list[str] | None = None) -> int:
         writer.writeheader()
         rows = run(cases, methods, args.seed, writer, handle, params)
     report = [f"# {args.suite}", "", *settings_line(params), *summary_table(rows, methods),
-              *by_map_table(rows, methods), *unknown_table(rows)]  # fmt: skip
+              *by_map_table(rows, methods), *stages_table(rows),
+              *unknown_table(rows)]  # fmt: skip
     md_path = args.out / f"{args.suite}.md"
     md_path.write_text("\n".join(report) + "\n")
     print("\n".join(report))

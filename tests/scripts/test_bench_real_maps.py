@@ -110,6 +110,17 @@ def test_the_default_merger_s_settings_reach_its_rows_and_the_report() -> None:
     params = with_settings(DEFAULT_PARAMS, {"confidence.accept": "1.0"})
     rows = bench.run(iter(cases), ["tomographic", bench.FROM_TRUTH], 0, writer, handle, params)
     assert [r.accepted for r in rows] == [False, False]
+    # The default's row says where its time went; the report sums it up.
+    steps = dict(item.split("=") for item in rows[0].stages.split(";"))
+    assert {"rotation", "translation", "refine"} <= set(steps) and "total" not in steps
+    assert rows[1].stages == ""
+    table = bench.stages_table(rows)
+    assert "Where the default's time goes (1 pairs; milliseconds):" in table
+    translation = next(line for line in table if line.startswith("| translation |"))
+    assert translation == f"| translation | 1 | {float(steps['translation']):.1f} | " + (
+        f"{float(steps['translation']):.1f} |"
+    )
+    assert bench.stages_table(rows[1:]) == []
     assert all(r.right == "yes" for r in rows)  # the same placements, only refused
     assert bench.settings_line(params) == [
         "Default merger's settings changed (`--merger`): `confidence.accept=1.0`.",
