@@ -171,19 +171,30 @@ class EpisodeConfig:
             "seed": int(self.seed),
             "dt": float(team.simulation.dt),
         }
-        listed = (
-            "merge",
-            "merge_interval",
-            "unlinked_merge_interval",
-            "method",
-            "comms.range",
-            "comms.line_of_sight",
-        )
-        others = {
-            name: value
-            for name, value in changed_settings(team).items()
-            if name not in listed and name != "simulation.dt"
-        }
+        others = other_team_settings(team)
         if others:
             settings["team"] = others
         return settings
+
+
+LISTED_TEAM_SETTINGS = (
+    "merge",
+    "merge_interval",
+    "unlinked_merge_interval",
+    "method",
+    "comms.range",
+    "comms.line_of_sight",
+    "simulation.dt",
+)
+"""Team settings :meth:`EpisodeConfig.settings` names by themselves (``simulation.dt`` as
+``dt``), not under ``team``."""
+
+
+def other_team_settings(team: TeamConfig) -> dict[str, Any]:
+    """The settings in which ``team`` differs from the defaults, by dotted name, but those
+    :data:`LISTED_TEAM_SETTINGS` (``team`` in :meth:`EpisodeConfig.settings`)."""
+    return {
+        name: value
+        for name, value in changed_settings(team).items()
+        if name not in LISTED_TEAM_SETTINGS
+    }

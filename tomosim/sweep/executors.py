@@ -33,8 +33,10 @@ from pathlib import Path
 from typing import Any
 
 from tomosim.episode import EpisodeConfig
-from tomosim.sweep.plan import Episode, SweepPlan, world_name
-from tomosim.sweep.rows import ResultsFile, run_one
+from tomosim.episode.config import other_team_settings
+from tomosim.sweep.plan import NO_MERGE, Episode, SweepPlan, world_name
+from tomosim.sweep.rows import ResultsFile, run_one, team_text
+from tomosim.team import team_methods
 
 EXECUTORS = ("process", "ray")
 """Names accepted by :func:`run_sweep`."""
@@ -128,7 +130,7 @@ def run_sweep(
             if had_rows and not resume:
                 # Another kind of file, or another sweep's: --resume would not help.
                 results.check_columns()
-                _done_keys(results, plan.settings())
+                _done_keys(results, plan)
                 raise ValueError(
                     f"{results.path} already holds results; pass --resume or choose --out"
                 )
@@ -154,7 +156,7 @@ def _sweep(
 ) -> SweepOutcome:
     """The body of :func:`run_sweep`, with the results file locked and checked."""
     shared = plan.settings()
-    done = _done_keys(results, shared)
+    done = _done_keys(results, plan)
     episodes = plan.episodes()
     pending = [e for e in episodes if e.key not in done]
     if plan.record_dir is not None:
@@ -171,8 +173,12 @@ def _sweep(
     return SweepOutcome(len(episodes), len(episodes) - len(pending), ran, results.path)
 
 
-def _done_keys(results: ResultsFile, shared: dict[str, Any]) -> set[str]:
-    """Keys already in the file, after checking that they come from the same sweep."""
+def _done_keys(results: ResultsFile, plan: SweepPlan) -> set[str]:
+    """Keys already in the file, after checking that they come from the same sweep: the
+    settings every episode shares, and the team settings of each row's method (in files
+    that record them)."""
+    shared = plan.settings()
+    teams: dict[str, str] = {}
     done: set[str] = set()
     for row in results.rows():
         for name, value in shared.items():
@@ -180,6 +186,17 @@ def _done_keys(results: ResultsFile, shared: dict[str, Any]) -> set[str]:
                 raise ValueError(
                     f"{results.path} was written by a sweep with {name}={row[name]}, "
                     f"not {value}; choose another --out"
+                )
+        # A row of a method no team runs (a file that is not a sweep's) is not judged here.
+        method = row.get("method", "")
+        if "team_settings" in row and (method in team_methods() or method == NO_MERGE):
+            if method not in teams:
+                teams[method] = team_text(other_team_settings(plan.team_of(method)))
+            if row["team_settings"] != teams[method]:
+                raise ValueError(
+                    f"{results.path} holds {method} episodes run with team settings "
+                    f"{row['team_settings'] or 'the defaults'}, not "
+                    f"{teams[method] or 'the defaults'}; choose another --out"
                 )
         done.add(_named_as_now(row["key"]))
     return done

@@ -138,10 +138,16 @@ class SweepPlan:
             for seed in self.seeds
         ]
 
+    def team_of(self, method: str) -> TeamConfig:
+        """The team of the plan's episodes that merge with ``method`` (:data:`NO_MERGE`:
+        merging off), keeping only that method's own settings
+        (:func:`tomosim.team.config.for_method`)."""
+        merge = method != NO_MERGE
+        return for_method(self.team, method if merge else TeamConfig.method, merge=merge)
+
     def episode(self, world: str, robots: int, policy: str, method: str, seed: int) -> Episode:
         """One episode of the grid (any values, not only the plan's own)."""
         key = episode_key(world, robots, policy, method, seed)
-        merge = method != NO_MERGE
         config = EpisodeConfig(
             world=world,
             world_size=self.world_size,
@@ -150,7 +156,7 @@ class SweepPlan:
             steps=self.steps,
             coverage_target=self.coverage_target,
             seed=seed,
-            team=for_method(self.team, method if merge else TeamConfig.method, merge=merge),
+            team=self.team_of(method),
         )
         if self.record_dir is not None:
             config = replace(config, record=self.record_dir / recording_name(key))

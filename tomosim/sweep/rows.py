@@ -24,7 +24,8 @@ TIMING_FIELDS = ("wall_seconds", "merge_seconds")
 """Columns that measure the machine, not the episode: they differ between runs."""
 ROW_FIELDS = (
     "key", "world", "world_spec", "robots", "policy", "method", "seed", "steps_limit",
-    "merge_interval", "coverage_target", "world_size", "comm_range", "steps", "coverage",
+    "merge_interval", "coverage_target", "world_size", "comm_range", "team_settings", "steps",
+    "coverage",
     "steps_to_target", "time_to_target_s", "stop_reason", "path_length_m", "path_lengths_m",
     "overlap_rate", "efficiency_m2_per_m", "merge_rounds", "pairs_accepted", "pairs_confirmed",
     "pairs_wrong", "pairs_gross_wrong", "pairs_gross_wrong_confirmed", "first_link_step",
@@ -33,10 +34,14 @@ ROW_FIELDS = (
     "translation_error_m_max", "record", *TIMING_FIELDS,
 )  # fmt: skip
 """Columns of the results file, in order."""
-EARLIER_ROW_FIELDS = (tuple(name for name in ROW_FIELDS if name != "all_linked_step"),)
+EARLIER_ROW_FIELDS = (
+    tuple(name for name in ROW_FIELDS if name not in ("all_linked_step", "team_settings")),
+    tuple(name for name in ROW_FIELDS if name != "team_settings"),
+)
 """Columns of results files written by earlier versions, which a sweep still resumes: a
 file keeps the columns it was started with, so its rows never miss a column that its
-other rows hold (``all_linked_step`` is unknown, not empty, for their episodes)."""
+other rows hold (``all_linked_step`` is unknown, not empty, for their episodes; without
+``team_settings`` a resumed file cannot say which team settings its rows ran with)."""
 HEADER_BYTES = 4096
 """Bytes of a file read to check that it starts with the results header (about 700)."""
 
@@ -62,6 +67,7 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
         "coverage_target": shared["coverage_target"],
         "world_size": shared["world_size"],
         "comm_range": shared["comm_range"],
+        "team_settings": team_text(settings.get("team", {})),
         "steps": metrics.steps,
         "coverage": round(metrics.coverage, 6),
         "steps_to_target": "" if target is None else target,
@@ -88,6 +94,14 @@ def episode_row(key: str, metrics: EpisodeMetrics, shared: dict[str, Any]) -> di
         "wall_seconds": round(metrics.wall_seconds, 3),
         "merge_seconds": round(sum(m.seconds for m in metrics.merges), 3),
     }
+
+
+def team_text(others: dict[str, Any]) -> str:
+    """A row's ``team_settings``: the episode's team settings changed from the defaults
+    but those with columns or options of their own
+    (:func:`tomosim.episode.config.other_team_settings`), ``name=value`` joined by
+    ``"; "``; empty for the defaults."""
+    return "; ".join(f"{name}={value}" for name, value in others.items())
 
 
 def _round(value: float, digits: int) -> float | str:

@@ -20,6 +20,7 @@ from tomosim.episode import EpisodeConfig
 from tomosim.sweep import ROW_FIELDS, ResultsFile, SweepPlan, run_sweep
 from tomosim.sweep.rows import EARLIER_ROW_FIELDS, TIMING_FIELDS
 from tomosim.team import CommsConfig, TeamConfig
+from tomosim.team.overrides import with_settings
 
 MERGE_INTERVAL = 40
 """Steps between the merge rounds of the small episodes."""
@@ -161,11 +162,14 @@ def test_existing_results_need_resume_and_the_same_settings(tmp_path: Path) -> N
             run_sweep(four_episodes(), theirs, resume=resume)
 
 
-def test_a_file_of_an_earlier_version_is_resumed_in_its_own_columns(tmp_path: Path) -> None:
-    # Written before the all_linked_step column: its rows stay whole, new rows leave the
-    # column out, so no row of the file claims its episode never linked all the maps.
+@pytest.mark.parametrize("earlier", EARLIER_ROW_FIELDS)
+def test_a_file_of_an_earlier_version_is_resumed_in_its_own_columns(
+    tmp_path: Path, earlier: tuple[str, ...]
+) -> None:
+    # Written before the all_linked_step column (or team_settings): its rows stay whole,
+    # new rows leave the column out, so no row of the file claims its episode never
+    # linked all the maps.
     out = tmp_path / "earlier.csv"
-    (earlier,) = EARLIER_ROW_FIELDS
     plan = four_episodes()
     first = plan.episodes()[0]
     settings = {name: str(value) for name, value in plan.settings().items()}
@@ -175,13 +179,34 @@ def test_a_file_of_an_earlier_version_is_resumed_in_its_own_columns(tmp_path: Pa
     assert outcome.skipped == 1 and outcome.ran == 3
     rows = ResultsFile(out).rows()
     assert ResultsFile(out).columns() == earlier and len(rows) == 4
-    assert all("all_linked_step" not in row for row in rows)
+    missing = set(ROW_FIELDS) - set(earlier)
+    assert missing and all(not missing & set(row) for row in rows)
     fresh = tmp_path / "fresh.csv"
     run_sweep(four_episodes(), fresh, workers=1)
     assert ResultsFile(fresh).columns() == ROW_FIELDS
     by_key = {row["key"]: row for row in ResultsFile(fresh).rows()}
     assert {by_key[k]["first_link_step"] for k in by_key if "|none|" in k} == {""}
     assert {by_key[k]["all_linked_step"] for k in by_key if "|none|" in k} == {""}
+
+
+def test_a_resumed_file_holds_one_team_per_method(tmp_path: Path) -> None:
+    # A setting of the oracle's is recorded in the oracle's rows only; a resume with
+    # another team is refused rather than mixing two teams' rows in one file.
+    out = tmp_path / "team.csv"
+    small = dict(SMALL)
+    team = with_settings(small.pop("team"), {"confirmations": "3", "oracle_min_shared_m2": "5"})
+    plan = SweepPlan(worlds=("1",), robots=(2,), methods=("tomographic", "oracle"),
+                     seeds=(0,), team=team, **small)  # type: ignore[arg-type]  # fmt: skip
+    run_sweep(plan, out, workers=1)
+    recorded = {row["method"]: row["team_settings"] for row in ResultsFile(out).rows()}
+    assert recorded == {
+        "tomographic": "confirmations=3",
+        "oracle": "confirmations=3; oracle_min_shared_m2=5.0",
+    }
+    assert run_sweep(plan, out, workers=1, resume=True).ran == 0
+    for other in (SMALL["team"], with_settings(team, {"oracle_min_shared_m2": "6"})):
+        with pytest.raises(ValueError, match="run with team settings confirmations=3"):
+            run_sweep(replace(plan, team=other), out, workers=1, resume=True)
 
 
 def test_a_torn_last_line_is_dropped(tmp_path: Path) -> None:
