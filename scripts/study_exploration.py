@@ -71,7 +71,7 @@ from merging.settings import parse_assignments
 from merging.validators import one_of
 from tomosim.commands import UsageError
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
-from tomosim.commands.team_options import check_methods_use
+from tomosim.commands.team_options import check_methods_option
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
 from tomosim.team import TeamConfig, team_methods
@@ -219,12 +219,7 @@ def study_team(pairs: list[str], out: Path, methods: list[str]) -> TeamConfig:
             one_of(method, (*team_methods(), NO_MERGE), what="merging method")
     except ValueError as error:
         raise UsageError(f"--methods: {error}") from None
-    check_methods_use(
-        team,
-        [m for m in methods if m != NO_MERGE],
-        chosen=f"--methods {' '.join(methods)}",
-        fix="add {method} to --methods",
-    )
+    check_methods_option(team, methods)
     recorded = out / TEAM_FILE
     before = json.loads(recorded.read_text()) if recorded.is_file() else {}
     now = json.loads(json.dumps(changed_settings(team)))

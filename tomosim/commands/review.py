@@ -89,8 +89,8 @@ def all_linked_step(rounds: list[dict[str, Any]], robots: int | None) -> int | N
     exactly when those pairs join every robot (``robots``: the run's setting; without
     it, the robots the pairs' names count).
     """
-    named = [pair_robots(name) for merge in rounds for name in merge["pairs"]]
     if robots is None:
+        named = [pair_robots(name) for merge in rounds for name in merge["pairs"]]
         robots = 1 + max((k for pair in named if pair for k in pair), default=0)
     if robots < 2:
         return None

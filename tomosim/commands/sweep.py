@@ -33,7 +33,7 @@ from tomosim.commands import (
 from tomosim.commands.explore import MAX_ROBOTS, check_episode_options
 from tomosim.commands.progress import Progress
 from tomosim.commands.stopping import Stopped, raise_if_stopped, stop_behind
-from tomosim.commands.team_options import add_team_arguments, check_methods_use, team_config
+from tomosim.commands.team_options import add_team_arguments, check_methods_option, team_config
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.kernels.jit import interrupts_unwrapped
 from tomosim.sweep import EXECUTORS, NO_MERGE, ResultsFile, SweepPlan, WorkerDied, run_sweep
@@ -154,12 +154,7 @@ def build_plan(args: argparse.Namespace) -> SweepPlan:
     except ValueError as exc:
         raise UsageError(one_line(exc)) from exc
     # After the plan has checked the method names, so that a misspelt one is named as such.
-    check_methods_use(
-        team,
-        [m for m in plan.methods if m != NO_MERGE],
-        chosen=f"--methods {' '.join(plan.methods)}",
-        fix="add {method} to --methods",
-    )
+    check_methods_option(team, plan.methods)
     return plan
 
 

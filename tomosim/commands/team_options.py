@@ -14,11 +14,13 @@ simulation.lidar.beams=180``.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from typing import Any
 
 from merging.settings import parse_assignments
 from merging.validators import real_number, whole_number
 from tomosim.commands import UsageError
+from tomosim.sweep.plan import NO_MERGE
 from tomosim.team import CommsConfig, TeamConfig
 from tomosim.team.config import settings_for_other_methods
 from tomosim.team.overrides import with_settings
@@ -111,6 +113,17 @@ def check_methods_use(team: TeamConfig, methods: list[str], *, chosen: str, fix:
     raise UsageError(
         f"--team {shown}: only the {needs!r} method uses it, and {chosen} does not run "
         f"it; drop the setting or {fix.format(method=needs)}"
+    )
+
+
+def check_methods_option(team: TeamConfig, methods: Sequence[str]) -> None:
+    """:func:`check_methods_use` for a run over ``--methods`` (``none``: merging off), as
+    ``tomosim sweep`` and the exploration study take them."""
+    check_methods_use(
+        team,
+        [m for m in methods if m != NO_MERGE],
+        chosen=f"--methods {' '.join(methods)}",
+        fix="add {method} to --methods",
     )
 
 
