@@ -798,8 +798,9 @@ wide as the bending between sessions (up to half a metre, 10 cells at 0.05 m) an
 that, over all of map 1, with twice the points of the other stages, as the parts that
 bend away are what the compromise weighs. On a third of the E5 session pairs (every
 third, sorted by name) the largest error of an accepted placement fell from 0.75 to 0.56
-of its tolerance, the median error stayed 3 cells. A compromise with a near rival is judged
-on the scale of these fields (:func:`merging.tomographic.judging.compromise_judging`)."""
+of its tolerance, the median error stayed 3 cells. The constraint strength of a compromise
+with a near rival is measured on these fields too
+(:func:`merging.tomographic.judging.with_compromise_curvature`)."""
 
 FROM_START = RefineStage(
     admit=1, refine=1, sigmas=(2.0, 1.0, 0.6), iterations=10, points=1500, local=True

@@ -59,11 +59,12 @@ def bent_compromise(
     the two are taken for one answer: the placement halfway between them,
     refined on fields as wide as the bending (``TomographicParams.compromise``)
     to the best rigid compromise over the whole overlap, is judged against
-    the placements farther than that, on the scale of those fields
-    (:func:`compromise_judging`). Asked only of a placement with the
-    walls meeting that the robust evidence asks (its ``agreeing`` factor
-    passing), which window pairs and the small maps of exploration do not
-    reach: for any other the compromise could not be vouched for either.
+    the placements farther than that, its constraint strength measured on
+    those fields too (:func:`with_compromise_curvature`). Asked only of a
+    placement with the walls meeting that the robust evidence asks (its
+    ``agreeing`` factor passing), which low-overlap window pairs and the
+    small maps of exploration do not reach: for any other the compromise
+    could not be vouched for either.
     """
     robust = maps.params.robust
     distance = evidence.get("tolerant_runner_up_distance_cells", np.inf)
@@ -91,28 +92,31 @@ def bent_compromise(
         points,
         (maps.params.distinct_cells, robust.distinct_cells),
     )
-    on_its_scale = SearchMaps(maps.first, maps.second, compromise_judging(maps.params), maps)
-    result = judged(on_its_scale, compromise, runners_up, hypotheses, timings)
+    judging = SearchMaps(maps.first, maps.second, with_compromise_curvature(maps.params), maps)
+    result = judged(judging, compromise, runners_up, hypotheses, timings)
     measures = {"bent_rival_distance_cells": distance, "bent_rival_turn_deg": turn}
     return replace(result, evidence={**result.evidence, **measures})
 
 
-def compromise_judging(params: TomographicParams) -> TomographicParams:
-    """``params`` for judging the rigid compromise of maps that bend, on its own scale.
+def with_compromise_curvature(params: TomographicParams) -> TomographicParams:
+    """``params`` with the constraint strength of the robust evidence also measured on the
+    fields the rigid compromise of maps that bend is refined on.
 
     The compromise is refined on fields as wide as the bending
-    (``TomographicParams.compromise``), between two placements that each fit
-    one part of the overlap: on the narrow fields each part pulls its own
-    way and the curvature at the compromise is none. So its constraint
-    strength is measured on those widths too (``RobustParams.strength_widths``
-    widened); a corridor that lets the maps slide stays weak at every width.
-    The walls must still meet within ``RobustParams.tolerance``: allowed the
-    compromise's widest field instead, the Halmstad F5 sessions
-    (``scripts/bench_cycles.py``) gained two more pairs, but on E5 a pair
+    (``TomographicParams.compromise``, 8 and 4 cells), between two
+    placements that each fit one part of the overlap. On fields of 1, 2 and
+    4 cells each part pulls its own way and no curvature is left at the
+    compromise, so it was refused as a slide; its strength is measured on
+    its widest field too (``RobustParams.strength_widths`` widened). A
+    corridor that lets the maps slide stays weak at every width.
+
+    The walls must still meet within ``RobustParams.tolerance``. Allowed
+    the compromise's widest field instead, the Halmstad F5 sessions
+    (``scripts/bench_cycles.py``) gained two more pairs, but an E5 pair
     without an annotated transform (``E5_08|E5_12``) was accepted 33-48
     cells from the chains of annotated ones, and linking all E5 sessions at
-    once (``scripts/bench_linking.py``) placed one pair 35 cells off, against
-    none.
+    once (``scripts/bench_linking.py``) then placed one pair 35 cells off
+    (with the robust tolerance: none).
     """
     robust, sigmas = params.robust, params.compromise.sigmas
     widths = tuple(sorted({*robust.strength_widths, *sigmas}))

@@ -9,7 +9,7 @@ import numpy as np
 from merging.evidence.verify import prepare_map
 from merging.params import DEFAULT_PARAMS
 from merging.tomographic.candidates import SearchMaps, rms_between
-from merging.tomographic.judging import compromise_judging
+from merging.tomographic.judging import with_compromise_curvature
 from merging.tomographic.restarts import rigid_compromise
 from merging.transforms import matrix_to_pose, rigid_matrix
 from tests.merging.builders import synthetic_building
@@ -47,11 +47,12 @@ def test_a_bent_map_settles_between_its_parts() -> None:
     assert 0.5 < to_right < 3.5
 
 
-def test_a_compromise_is_judged_on_the_scale_of_its_fields() -> None:
-    # Its curvature is measured on its fields as well as on the robust evidence's own;
-    # nothing else changes, the walls' tolerance included.
-    params = compromise_judging(DEFAULT_PARAMS)
+def test_a_compromise_has_its_curvature_measured_on_its_fields_too() -> None:
+    # The robust evidence's strength widths gain the compromise's; nothing else changes,
+    # the walls' tolerance included.
+    params = with_compromise_curvature(DEFAULT_PARAMS)
     default, sigmas = DEFAULT_PARAMS.robust, DEFAULT_PARAMS.compromise.sigmas
     assert set(params.robust.strength_widths) == {*default.strength_widths, *sigmas}
+    assert max(params.robust.strength_widths) > max(default.strength_widths)
     assert replace(params.robust, strength_widths=default.strength_widths) == default
     assert replace(params, robust=default) == DEFAULT_PARAMS

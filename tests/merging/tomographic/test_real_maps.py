@@ -127,12 +127,14 @@ def test_a_near_rival_of_bent_sessions_is_merged_into_the_compromise(
     assert refused.reason.startswith("ambiguous: another placement about as good")
 
 
-def test_a_compromise_of_bent_sessions_is_judged_on_its_own_scale(maps_folder) -> None:
+def test_a_compromise_of_bent_sessions_is_held_by_its_curvature_on_wide_fields(
+    maps_folder,
+) -> None:
     # F5_08 and F5_14 (no annotated truth): the rival 24 cells away, turned 3 degrees, is
-    # the same answer bent. With the curvature of the narrow fields alone the compromise
-    # between them was refused as a slide (at the compromise each part pulls its own way,
-    # no curvature is left at one cell); with the curvature on the fields it was refined
-    # on too it is accepted, and agrees with the chain through F5_05.
+    # the same answer bent. With the curvature on fields of 1-4 cells alone the compromise
+    # between them was refused as a slide (each part pulls its own way, no curvature is
+    # left at the compromise); with the curvature on the 8-cell field it was refined on
+    # too it is accepted, and agrees with the chain through F5_05.
     folder = maps_folder / "halmstad"
     names = ("F5_08", "F5_05", "F5_14")
     grids = {name: merging.load_map(folder / f"{name}.yaml") for name in names}
