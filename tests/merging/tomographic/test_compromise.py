@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from merging.evidence.refine import SmoothedMap, constraint_strength
 from merging.evidence.verify import prepare_map
 from merging.params import DEFAULT_PARAMS
 from merging.tomographic.candidates import SearchMaps, rms_between
@@ -56,3 +57,34 @@ def test_a_compromise_has_its_curvature_measured_on_its_fields_too() -> None:
     assert max(params.robust.strength_widths) > max(default.strength_widths)
     assert replace(params.robust, strength_widths=default.strength_widths) == default
     assert replace(params, robust=default) == DEFAULT_PARAMS
+
+
+def _corridor(cross_wall: bool) -> np.ndarray:
+    """Two parallel walls 600 cells long, 20 apart, and at column 300 a wall across them."""
+    grid = np.full((60, 600), -1, dtype=np.int8)
+    grid[3:57, 3:597] = 0
+    grid[20, 3:597] = grid[40, 3:597] = 100
+    if cross_wall:
+        grid[20:41, 300] = 100
+    return grid
+
+
+def test_a_corridor_that_lets_the_maps_slide_stays_weak_on_the_compromise_fields() -> None:
+    # Map 2 is the middle of the corridor: slid along it, its walls stay on map 1's at
+    # every field width, so the widest strength the robust evidence measures for a
+    # compromise stays below its threshold; a wall across the corridor holds it.
+    params = with_compromise_curvature(DEFAULT_PARAMS)
+    placement = rigid_matrix(150.0, 0.0, 0.0)
+
+    def widest_strength(grid: np.ndarray) -> float:
+        first, second = prepare_map(grid), prepare_map(grid[:, 150:450])
+        smoothed = SmoothedMap(first.walls, first.shape)
+        strengths = []
+        for width in params.robust.strength_widths:
+            field = replace(params.gauss_newton, curvature_sigma=width, curvature_step=width)
+            strength = constraint_strength(smoothed, second, placement, local=True, params=field)
+            strengths.append(strength * width**2)
+        return max(strengths)
+
+    assert widest_strength(_corridor(cross_wall=False)) < params.robust.strength
+    assert widest_strength(_corridor(cross_wall=True)) > params.robust.strength
