@@ -71,7 +71,7 @@ from merging.settings import parse_assignments
 from merging.validators import one_of
 from tomosim.commands import UsageError
 from tomosim.commands.script_args import non_negative_int, positive_float, positive_int, run_script
-from tomosim.commands.team_options import check_methods_option
+from tomosim.commands.team_options import check_methods_option, check_methods_use
 from tomosim.exploration import DEFAULT_POLICY, chooser_names
 from tomosim.sweep import EXECUTORS, NO_MERGE
 from tomosim.team import TeamConfig, team_methods
@@ -199,11 +199,14 @@ TEAM_FILE = "team_settings.json"
 """The file in ``--out`` naming the team settings its episodes ran with (none: the defaults)."""
 
 
-def study_team(pairs: list[str], out: Path, methods: list[str]) -> TeamConfig:
+def study_team(
+    pairs: list[str], out: Path, methods: list[str], robots: tuple[int, ...] = ROBOTS
+) -> TeamConfig:
     """The team ``--team`` asks for; :class:`UsageError` for a bad setting, one that none of
-    ``methods`` uses (``oracle_min_shared_m2`` without the oracle), or a folder whose
-    episodes ran with other settings (resuming would mix two teams' rows). A setting of
-    one method acts on that method's episodes only."""
+    ``methods`` uses (``oracle_min_shared_m2`` without the oracle) or that no episode of
+    team sizes ``robots`` would use (a robot alone runs with merging off), or a folder
+    whose episodes ran with other settings (resuming would mix two teams' rows). A
+    setting of one method acts on that method's episodes only."""
     try:
         settings = parse_assignments(pairs, option="--team", example="confirmations=3")
     except ValueError as error:
@@ -220,6 +223,14 @@ def study_team(pairs: list[str], out: Path, methods: list[str]) -> TeamConfig:
     except ValueError as error:
         raise UsageError(f"--methods: {error}") from None
     check_methods_option(team, methods)
+    if all(size == 1 for size in robots):
+        sizes = " ".join(str(size) for size in robots)
+        check_methods_use(
+            team,
+            [],
+            chosen=f"--robots {sizes} (a robot alone explores with merging off)",
+            fix="add a team size above 1 to --robots",
+        )
     recorded = out / TEAM_FILE
     before = json.loads(recorded.read_text()) if recorded.is_file() else {}
     now = json.loads(json.dumps(changed_settings(team)))
@@ -268,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=OUTPUT, help="folder of the outputs")
     parser.add_argument("--report-only", action="store_true", help="run nothing, only report")
     args = parser.parse_args(argv)
-    team = study_team(args.team, args.out, args.methods)
+    team = study_team(args.team, args.out, args.methods, tuple(args.robots))
     if args.steps is not None and args.steps < 1:
         parser.error(f"--steps must be at least 1, got {args.steps}")
     unknown = [p for p in (*args.policies, args.policy) if p not in chooser_names()]
