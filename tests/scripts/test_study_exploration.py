@@ -163,7 +163,9 @@ def test_team_settings_reach_the_episodes_and_a_folder_keeps_one_team(
     # Teams of one run with merging off only: no method's setting acts on them.
     with pytest.raises(UsageError, match=r"--robots 1 \(a robot alone"):
         script.study_team(["oracle_min_shared_m2=10"], tmp_path / "new", every_method, (1,))
-    assert script.study_team(["confirmations=3"], tmp_path / "new", every_method, (1,))
+    # A setting of the whole team is still taken.
+    alone = script.study_team(["confirmations=3"], tmp_path / "new", every_method, (1,))
+    assert alone.confirmations == 3
     # A run that recorded its settings but wrote no episode, then one with the defaults:
     # the folder says the defaults, and resuming it with the first settings is refused.
     empty = tmp_path / "empty"
