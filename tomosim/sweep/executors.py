@@ -27,6 +27,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -176,11 +177,21 @@ def _sweep(
 def _done_keys(results: ResultsFile, plan: SweepPlan) -> set[str]:
     """Keys already in the file, after checking that they come from the same sweep: the
     settings every episode shares, and the team settings of each row's method (in files
-    that record them)."""
+    that record them; a file of an earlier version that does not is resumed with a
+    warning that they cannot be checked)."""
     shared = plan.settings()
     teams: dict[str, str] = {}
     done: set[str] = set()
-    for row in results.rows():
+    rows = results.rows()
+    if rows and "team_settings" not in results.columns():
+        warnings.warn(
+            f"{results.path} was written by an earlier version that did not record the team "
+            "settings its rows ran with; they cannot be checked against this sweep's "
+            "(resume it only with the --team settings it was started with)",
+            UserWarning,
+            stacklevel=4,
+        )
+    for row in rows:
         for name, value in shared.items():
             if row[name] != str(value):
                 raise ValueError(
