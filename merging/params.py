@@ -969,13 +969,38 @@ class LinkingParams:
         accepted triangles, 47 on F5's 39: ``scripts/bench_cycles.py``),
         where the wrong placements the bending evidence once accepted lay
         285-910 cells off. Three metres at 0.05 m.
+    across_conflict : float
+        Share of the wall cells of two maps placed through a new link (maps
+        of the two groups it joins, not the pair itself) landing on the
+        other map's clear open space at which the link is dropped
+        (:mod:`merging.linking.across`; both ways, as
+        :attr:`merging.evidence.verify.Verification.conflict` counts them).
+        In exploration with 4 robots on generated floors 0-2, seeds 0-63
+        (``scripts/exploration_confidences.py``, 192 episodes), the 5875
+        right estimates judged across their joins (one per pair and round)
+        laid at most 0.12 of those walls on open space (0.05 for 99 % of
+        them, 0.003 in the median); the one
+        false match joining groups, a room matched to its twin half a turn
+        away (``floor1`` seed 48, confidence 0.64-0.69, confirmed by a
+        second round), laid 0.53-0.56. A quarter lies between, about as far
+        from either in ratio.
+    across_overlap_cells : float
+        Wall cells of two such maps that must meet the other map's known
+        cells (both ways, :attr:`~merging.evidence.verify.Verification.overlap`)
+        for them to be judged: below it a few stray cells make the share.
     """
 
     contradiction_cells: float = 10.0
     bent_contradiction_cells: float = 60.0
+    across_conflict: float = 0.25
+    across_overlap_cells: float = 100.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("contradiction_cells", "bent_contradiction_cells"))
+        _check_fields(
+            self,
+            positive=("contradiction_cells", "bent_contradiction_cells", "across_overlap_cells"),
+            fractions=("across_conflict",),
+        )
 
 
 DEFAULT_LINKING = LinkingParams()

@@ -3,6 +3,8 @@
 :mod:`~merging.linking.forest`
     Pairwise estimates, the consistent spanning forest over them and one frame
     per group (:func:`link_maps`, :func:`merge_all`).
+:mod:`~merging.linking.across`
+    Checking a pair that joins two linked groups on the maps across the join.
 :mod:`~merging.linking.posegraph`
     Placing a group by all of its pairwise transforms at once.
 :mod:`~merging.linking.fusion`

@@ -13,6 +13,11 @@ of them to trust together:
    :attr:`~merging.params.LinkingParams.contradiction_cells`, or
    :attr:`~merging.params.LinkingParams.bent_contradiction_cells` when a
    pair of the comparison was vouched for as maps that bend (:func:`bends`);
+   then, taking the pairs most confident first, it drops a pair that would
+   join two groups of maps when it lays the walls of a map of one group
+   across the open space of a map of the other
+   (:func:`merging.linking.across.contradicted_joins`): maps its own
+   verification never saw together;
 3. it links the rest by a maximum spanning forest weighted by confidence
    (:func:`scipy.sparse.csgraph.minimum_spanning_tree` on ``2 - confidence``),
    so that one weak wrong pair cannot override a chain of confident ones;
@@ -43,6 +48,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 
 from merging.api import DEFAULT_METHOD, check_method, estimate_transform
 from merging.grid import OccupancyGrid, occupied_cells, validate_cells
+from merging.linking.across import contradicted_joins
 from merging.linking.fusion import FusedMap, fuse
 from merging.linking.posegraph import adjust_poses
 from merging.params import DEFAULT_LINKING, LinkingParams
@@ -254,6 +260,8 @@ def link_maps(
     points = [_check_points(c) for c in cells]
     usable = {key: r for key, r in given.items() if r.accepted and np.all(np.isfinite(r.matrix))}
     trusted, notes = consistent_pairs(usable, points, params=params)
+    trusted, across_notes = contradicted_joins(trusted, cells, bends, params=params)
+    notes += across_notes
     tree = _spanning_forest(count, trusted)
     roots, transforms = _compose(count, tree, trusted)
     late, late_notes = _contradicting_tree(trusted, tree, roots, transforms, points, params)
