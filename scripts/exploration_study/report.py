@@ -296,8 +296,9 @@ def checks(
     out.append(
         Check(
             "no accepted wrong merge in the study",
-            f"{gross} false matches (> 5 deg or > 1 m; {used} of them confirmed) and {strict} "
-            f"beyond 2 deg / 0.2 m among {accepted} accepted estimates, {episodes} episodes",
+            f"{gross} false matches (> 5 deg or > 1 m; {used} of them confirmed and linking "
+            f"maps) and {strict} beyond 2 deg / 0.2 m among {accepted} accepted estimates, "
+            f"{episodes} episodes",
             gross == 0 if episodes else None,  # no episode: nothing was checked
         )
     )
@@ -358,12 +359,12 @@ def criterion_table(
     tomographic merger's median time over the oracle's and its share of the oracle's
     saving over no merging, each with the interval of :func:`interval`; the per-episode
     ratios; the first round that linked two maps, and the first that linked them all, of
-    either method; false matches confirmed."""
+    either method; false matches confirmed and linking maps."""
     lines = [
         "| world | episodes | tomographic / oracle (90 % interval) | share of the oracle's "
         "saving (90 % interval) | per episode tomographic / oracle, median (range) | first "
         "link, tomographic [step] | first link, oracle [step] | all linked, tomographic "
-        "[step] | all linked, oracle [step] | false matches confirmed |",
+        "[step] | all linked, oracle [step] | false matches linking maps |",
         "|---|---:|---|---|---|---|---|---|---|---:|",
     ]
     floors = [w for w in worlds if w.generated and w.label in tables]

@@ -85,7 +85,9 @@ class MergeStats:
     gross_wrong : int
         Accepted estimates beyond :data:`GROSS_ROTATION_DEG` or :data:`GROSS_TRANSLATION_M`.
     gross_wrong_confirmed : int
-        Those of them also confirmed, which linked maps.
+        Those of them also confirmed and kept by the linking, which linked
+        maps: a confirmed estimate the linking drops as contradicting the
+        others (:attr:`~tomosim.team.PairQuality.dropped`) links nothing.
     first_link_step : int or None
         The first round in which a confirmed estimate linked two maps.
     linked_robots : int
@@ -209,6 +211,7 @@ class EpisodeMetrics:
         wrong = (rotation > WRONG_ROTATION_DEG) | (translation > WRONG_TRANSLATION_M)
         gross = (rotation > GROSS_ROTATION_DEG) | (translation > GROSS_TRANSLATION_M)
         confirmed = np.array([p.confirmed for p in accepted], dtype=bool)
+        kept = np.array([p.confirmed and not p.dropped for p in accepted], dtype=bool)
         linked = [m.step for m in self.merges if any(p.used for p in m.pairs)]
         team = int(self.settings.get("robots", len(self.robot_coverage_curves)))
         whole = [m.step for m in self.merges if team > 1 and len(m.merged_robots) == team]
@@ -220,7 +223,7 @@ class EpisodeMetrics:
             confirmed=int(np.count_nonzero(confirmed)),
             wrong=int(np.count_nonzero(wrong)),
             gross_wrong=int(np.count_nonzero(gross)),
-            gross_wrong_confirmed=int(np.count_nonzero(gross & confirmed)),
+            gross_wrong_confirmed=int(np.count_nonzero(gross & kept)),
             first_link_step=linked[0] if linked else None,
             linked_robots=len(last.merged_robots) if last is not None else 1,
             all_linked_step=whole[0] if whole else None,

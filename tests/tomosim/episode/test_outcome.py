@@ -108,6 +108,17 @@ def test_merge_statistics_count_what_the_merger_did() -> None:
     assert three.merge_stats().all_linked_step is None  # robot 2 was never linked
 
 
+def test_a_false_match_counts_as_linking_maps_unless_the_linking_dropped_it() -> None:
+    false = pair(accepted=True, confirmed=True, used=True, errors=(180.0, 25.0))
+    dropped = replace(false, used=False, dropped=True)
+    rounds = [
+        MergeRound(50, (false,), (0, 1), 0.9, 0.1),
+        MergeRound(100, (dropped,), (0,), 0.9, 0.1),
+    ]
+    stats = metrics(rounds, [0.2, 0.5, 0.95]).merge_stats()
+    assert (stats.confirmed, stats.gross_wrong, stats.gross_wrong_confirmed) == (2, 2, 1)
+
+
 def test_time_to_target_curves_and_efficiency() -> None:
     episode = metrics([], [0.2, 0.5, 0.8, 0.91, 0.95])
     assert episode.steps_to(0.9) == 3 and episode.seconds_to(0.9) == pytest.approx(0.3)
