@@ -3,8 +3,11 @@
 Exploration on generated floors with the team's settings; every pair estimate
 a merge round accepts is a row: its confidence, its rotation and translation
 errors against the truth, whether it was the pair's first acceptance in the
-episode, and whether it was confirmed (linked maps). A false match is an
-estimate beyond 5 degrees or 1 m of the truth (:mod:`tomosim.episode.outcome`).
+episode, whether it was confirmed and whether the linking dropped it, and,
+for a pair joining two linked groups, the share of walls on open space
+across the join that the linking judges it by (``linking.across_conflict``,
+:mod:`merging.linking.across`). A false match is an estimate beyond 5
+degrees or 1 m of the truth (:mod:`tomosim.episode.outcome`).
 
 The summary says at which confidences the false matches were accepted, and
 for thresholds of :attr:`~tomosim.team.TeamConfig.confirm_at_once_confidence`
@@ -37,6 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from merging.grid import validate_cells
+from merging.linking.across import conflict_across
 from tomosim.commands.floor_episodes import (
     add_floor_episode_arguments,
     check_floor_episode_arguments,
@@ -45,6 +50,7 @@ from tomosim.commands.floor_episodes import (
 from tomosim.episode import EpisodeConfig
 from tomosim.episode.outcome import GROSS_ROTATION_DEG, GROSS_TRANSLATION_M
 from tomosim.episode.runner import run_episode
+from tomosim.team import RoundQuality, TeamSession
 from tomosim.team.overrides import changed_settings
 
 COLUMNS = (
@@ -58,9 +64,15 @@ COLUMNS = (
     "false_match",
     "first_acceptance",
     "confirmed",
+    "dropped",
+    "conflict_across",
 )
 """The rows' columns: one accepted estimate each; ``first_acceptance`` is 1 for the
-first round that accepted the pair in its episode."""
+first round that accepted the pair in its episode; ``dropped`` is 1 when the linking
+left a confirmed estimate out as contradicting the others; ``conflict_across`` is the
+share of walls on open space the linking judges a join of two groups by
+(:func:`merging.linking.across.conflict_across`, the round's other links making the
+groups), empty when the pair joins no groups or nothing across meets."""
 THRESHOLDS = (0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
 """Confidences the summary counts the first right acceptances and false matches at."""
 TEAM_EXAMPLE = "confirm_at_once_confidence=none"
@@ -72,7 +84,19 @@ whose episodes ran with others is refused rather than mixed."""
 
 def episode_rows(world: int, seed: int, config: EpisodeConfig) -> list[dict[str, Any]]:
     """One episode's rows (:data:`COLUMNS`), in round order."""
-    metrics = run_episode(config)
+    across: dict[tuple[int, str], float | None] = {}
+
+    def weigh_joins(session: TeamSession, scored: RoundQuality) -> None:
+        """Each accepted pair's share of walls on open space across the join it makes."""
+        linking = scored.merge.linking
+        cells = [validate_cells(grid) for grid in session.grids()]
+        links = {key: linking.pairs[key] for key in linking.tree}
+        for pair in scored.merge.accepted:
+            key = (pair.first, pair.second)
+            share = conflict_across(cells, links, key, pair.result, params=config.team.linking)
+            across[(scored.step, f"r{pair.first}-r{pair.second}")] = share
+
+    metrics = run_episode(config, on_merge=weigh_joins)
     rows = []
     seen: set[str] = set()
     for merge in metrics.merges:
@@ -96,10 +120,16 @@ def episode_rows(world: int, seed: int, config: EpisodeConfig) -> list[dict[str,
                     "false_match": int(false),
                     "first_acceptance": int(name not in seen),
                     "confirmed": int(pair.confirmed),
+                    "dropped": int(pair.dropped),
+                    "conflict_across": _share(across.get((merge.step, name))),
                 }
             )
             seen.add(name)
     return rows
+
+
+def _share(value: float | None) -> str | float:
+    return "" if value is None else round(value, 4)
 
 
 def summarise(rows: Sequence[dict[str, Any]], episodes: int) -> str:
@@ -110,22 +140,28 @@ def summarise(rows: Sequence[dict[str, Any]], episodes: int) -> str:
     lines = [
         f"episodes: {episodes}; {len(rows)} accepted estimates, {len(false)} false matches "
         f"(beyond {GROSS_ROTATION_DEG:g} deg or {GROSS_TRANSLATION_M:g} m), "
-        f"{sum(int(r['confirmed']) for r in false)} of them confirmed",
+        f"{sum(int(r['confirmed']) for r in false)} of them confirmed, "
+        f"{sum(int(r['confirmed']) and not int(r.get('dropped') or 0) for r in false)} "
+        "of those kept by the linking",
         "",
     ]
     if false:
         lines += [
             "| false match | step | pair | confidence | rotation [deg] | translation [m] "
-            "| confirmed |",
-            "|---|---:|---|---:|---:|---:|---:|",
+            "| confirmed | dropped | walls on open space across |",
+            "|---|---:|---|---:|---:|---:|---:|---:|---:|",
         ]
         for r in sorted(false, key=lambda r: -float(r["confidence"])):
+            share = r.get("conflict_across", "")
+            across = "-" if share in ("", None) else f"{float(share):.3f}"
             lines.append(
                 f"| {r['world']} seed {r['seed']} | {r['step']} | {r['pair']} | "
                 f"{float(r['confidence']):.3f} | {float(r['rotation_error_deg']):.1f} | "
-                f"{float(r['translation_error_m']):.1f} | {r['confirmed']} |"
+                f"{float(r['translation_error_m']):.1f} | {r['confirmed']} | "
+                f"{r.get('dropped', '')} | {across} |"
             )
         lines.append("")
+    lines += _across_lines(rows)
     if len(first_right):
         quartiles = np.percentile(first_right, [25, 50, 75])
         lines += [
@@ -140,6 +176,24 @@ def summarise(rows: Sequence[dict[str, Any]], episodes: int) -> str:
             wrong = sum(float(r["confidence"]) >= threshold for r in false)
             lines.append(f"| {threshold:.2f} | {right:.1%} | {wrong} |")
     return "\n".join(lines)
+
+
+def _across_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The shares of walls on open space across the joins of right estimates and of
+    false matches (those with a share): what ``linking.across_conflict`` is set between."""
+    shares: dict[bool, list[float]] = {True: [], False: []}
+    for r in rows:
+        if r.get("conflict_across") not in ("", None):
+            shares[bool(int(r["false_match"]))].append(float(r["conflict_across"]))
+    right, false = np.array(shares[False]), shares[True]
+    if not len(right) and not false:
+        return []
+    line = f"joins of two groups judged across: {len(right)} right estimates"
+    if len(right):
+        median, high, top = np.percentile(right, [50, 99, 100])
+        line += f" (walls on open space: median {median:.3f}, 99 % {high:.3f}, max {top:.3f})"
+    listed = ", ".join(f"{v:.3f}" for v in sorted(false)) if false else "-"
+    return [line + f", {len(false)} false matches ({listed})", ""]
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:

@@ -37,21 +37,25 @@ def test_rows_mark_each_pairs_first_acceptance_and_a_rerun_resumes(tmp_path: Pat
 
 def test_the_summary_counts_first_right_acceptances_and_false_matches_per_threshold() -> None:
     confidences = load_script("exploration_confidences")
-    base = {"world": "floor1", "seed": 48, "step": 80, "pair": "r1-r2", "confirmed": 0}
+    base = {"world": "floor1", "seed": 48, "step": 80, "pair": "r1-r2", "confirmed": 0,
+            "dropped": 0, "conflict_across": ""}  # fmt: skip
     rows = [
         base | {"confidence": 0.9, "rotation_error_deg": 0.2, "translation_error_m": 0.1,
-                "false_match": 0, "first_acceptance": 1},
+                "false_match": 0, "first_acceptance": 1, "conflict_across": 0.01},
         base | {"confidence": 0.7, "rotation_error_deg": 0.2, "translation_error_m": 0.1,
                 "false_match": 0, "first_acceptance": 1},
         base | {"confidence": 0.95, "rotation_error_deg": 0.2, "translation_error_m": 0.1,
-                "false_match": 0, "first_acceptance": 0},
+                "false_match": 0, "first_acceptance": 0, "conflict_across": 0.03},
         base | {"confidence": 0.66, "rotation_error_deg": 179.9, "translation_error_m": 25.6,
-                "false_match": 1, "first_acceptance": 1, "confirmed": 1},
+                "false_match": 1, "first_acceptance": 1, "confirmed": 1, "dropped": 1,
+                "conflict_across": 0.54},
     ]  # fmt: skip
     report = confidences.summarise(rows, 1)
     assert report.startswith("episodes: 1; 4 accepted estimates, 1 false matches")
-    assert "1 of them confirmed" in report
-    assert "| floor1 seed 48 | 80 | r1-r2 | 0.660 | 179.9 | 25.6 | 1 |" in report
+    assert "1 of them confirmed, 0 of those kept by the linking" in report
+    assert "| floor1 seed 48 | 80 | r1-r2 | 0.660 | 179.9 | 25.6 | 1 | 1 | 0.540 |" in report
+    assert "judged across: 2 right estimates (walls on open space: median 0.020, " in report
+    assert "max 0.030), 1 false matches (0.540)" in report
     assert "first right acceptances of a pair: 2" in report
     assert "| 0.65 | 100.0% | 1 |" in report
     assert "| 0.70 | 100.0% | 0 |" in report
