@@ -979,11 +979,13 @@ class LinkingParams:
         (``scripts/exploration_confidences.py``, 192 episodes), the 5875
         right estimates judged across their joins (one per pair and round)
         laid at most 0.12 of those walls on open space (0.05 for 99 % of
-        them, 0.003 in the median); the one
-        false match joining groups, a room matched to its twin half a turn
-        away (``floor1`` seed 48, confidence 0.64-0.69, confirmed by a
-        second round), laid 0.53-0.56. A quarter lies between, about as far
-        from either in ratio.
+        them, 0.003 in the median); the one false match joining groups, a
+        room matched to its twin half a turn away (``floor1`` seed 48,
+        confidence 0.64-0.69, confirmed by a second round), laid 0.53-0.56.
+        A quarter lies between, about as far from either in ratio. A false
+        match that slides a map along a corridor whose doors repeat lays
+        its walls on walls across the join too (0.00): the check cannot
+        see it.
     across_overlap_cells : float
         Wall cells of two such maps that must meet the other map's known
         cells (both ways, :attr:`~merging.evidence.verify.Verification.overlap`)
