@@ -947,10 +947,12 @@ DEFAULT_PARAMS = TomographicParams()
 
 @dataclass(frozen=True, slots=True)
 class LinkingParams:
-    """How far chained transforms may disagree before a pair is dropped as contradicting.
+    """When a pair is dropped as contradicting the others: how far chained transforms may
+    disagree, and how many walls a join may lay on open space across it.
 
     Used by :func:`merging.link_maps` and :func:`merging.merge_all`
-    (:mod:`merging.linking.forest`, steps 2 and 5) for any method.
+    (:mod:`merging.linking.forest`, steps 2 and 5; :mod:`merging.linking.across`)
+    for any method.
 
     Attributes
     ----------
@@ -971,21 +973,22 @@ class LinkingParams:
         285-910 cells off. Three metres at 0.05 m.
     across_conflict : float
         Share of the wall cells of two maps placed through a new link (maps
-        of the two groups it joins, not the pair itself) landing on the
-        other map's clear open space at which the link is dropped
-        (:mod:`merging.linking.across`; both ways, as
-        :attr:`merging.evidence.verify.Verification.conflict` counts them).
+        of the two groups it joins, not the pair itself) that meet the other
+        map's known cells and land on its clear open space, above which the
+        link is dropped (:mod:`merging.linking.across`; both ways, as
+        :attr:`merging.evidence.verify.Verification.conflict` counts them;
+        1 never drops one).
         In exploration with 4 robots on generated floors 0-2, seeds 0-63
-        (``scripts/exploration_confidences.py``, 192 episodes), the 5875
-        right estimates judged across their joins (one per pair and round)
-        laid at most 0.12 of those walls on open space (0.05 for 99 % of
-        them, 0.003 in the median); the one false match joining groups, a
-        room matched to its twin half a turn away (``floor1`` seed 48,
-        confidence 0.64-0.69, confirmed by a second round), laid 0.53-0.56.
-        A quarter lies between, about as far from either in ratio. A false
-        match that slides a map along a corridor whose doors repeat lays
-        its walls on walls across the join too (0.00): the check cannot
-        see it.
+        (``scripts/exploration_confidences.py``, 192 episodes), the 3037
+        right estimates the linking judged (one per pair and round) laid at
+        most 0.12 of those walls on open space (0.05 for 99 % of them, 0.002
+        in the median); the one false match joining groups, a room matched
+        to its twin half a turn away (``floor1`` seed 48, in its three
+        confirmed rounds, confidence 0.64-0.69), laid 0.54-0.56. A quarter
+        lies between, about as far from either in ratio. A false match that
+        slides a map along a corridor whose doors repeat lays the maps
+        across wall on wall (0.00 for the one seen, never confirmed): the
+        check cannot see it.
     across_overlap_cells : float
         Wall cells of two such maps that must meet the other map's known
         cells (both ways, :attr:`~merging.evidence.verify.Verification.overlap`)

@@ -21,6 +21,16 @@ clear open space (``LinkingParams.across_conflict``), the pair is dropped:
 what it says of the maps across is false. Maps that bend against each other
 (separate sessions of a floor, :func:`merging.linking.forest.bends`) are not
 judged this way, since right links of theirs lay walls a few cells off.
+
+What it cannot see
+------------------
+A join of two maps linked to nothing else has nothing across it: the pair
+is taken on its own evidence. Blame goes by confidence: a wrong pair more
+confident than the right ones it contradicts joins first, and the right
+ones are then dropped as the maps across them disagree (the triangles of
+the next rounds may still drop the wrong one). And a wrong pair that slides
+a map along a corridor whose doors repeat lays the maps across wall on wall
+too.
 """
 
 from __future__ import annotations
@@ -45,7 +55,7 @@ def contradicted_joins(
     bends: Callable[[MergeResult], bool],
     *,
     params: LinkingParams,
-) -> tuple[dict[Pair, MergeResult], list[str]]:
+) -> tuple[dict[Pair, MergeResult], list[str], dict[Pair, float]]:
     """Drop the pairs whose join of two groups the maps across contradict (module docstring).
 
     Parameters
@@ -62,11 +72,14 @@ def contradicted_joins(
 
     Returns
     -------
-    (dict, list of str)
-        The pairs kept, and a line per pair dropped.
+    (dict, list of str, dict)
+        The pairs kept, a line per pair dropped, and per pair judged the share
+        it was judged by (the largest over the pairs of maps across its join
+        that met enough; pairs with none are left out).
     """
     kept = dict(pairs)
     notes: list[str] = []
+    shares: dict[Pair, float] = {}
     groups = _Groups(len(cells))
     prepared = _PreparedMaps(cells)
     for key in _by_confidence(pairs):
@@ -76,46 +89,21 @@ def contradicted_joins(
         result = pairs[key]
         join = groups.join_of(key, result)
         judged = not (bends(result) or groups.bent[groups.root[i]] or groups.bent[groups.root[j]])
-        if judged:
-            found = _worst_across(groups, prepared, key, join, params)
-            if found is not None and found[2].conflict >= params.across_conflict:
-                one, other, check = found
+        found = _worst_across(groups, prepared, key, join, params) if judged else None
+        if found is not None:
+            one, other, check = found
+            shares[key] = float(check.conflict)
+            if check.conflict > params.across_conflict:
                 del kept[key]
                 notes.append(
                     f"pair {i}-{j} (accepted, confidence {result.confidence:.2f}) dropped: placed "
-                    f"through it, {check.conflict:.0%} of the walls of maps {one} and {other} that "
-                    "meet the other map land on its open space"
+                    f"through it and the links already made, maps {one} and {other} lay "
+                    f"{check.conflict:.0%} of their walls that meet the other's known cells on "
+                    f"its open space (limit {params.across_conflict:.0%})"
                 )
                 continue
         groups.join(i, j, join, bent=not judged)
-    return kept, notes
-
-
-def conflict_across(
-    cells: Sequence[NDArray[np.int8]],
-    links: Mapping[Pair, MergeResult],
-    key: Pair,
-    result: MergeResult,
-    *,
-    params: LinkingParams,
-) -> float | None:
-    """The share of walls on open space that :func:`contradicted_joins` would judge ``key`` by.
-
-    ``links`` are the pairs that link the grids into groups (a linking's tree,
-    say), ``key`` left out of them; ``result`` is the pair's estimate. The
-    largest :attr:`~merging.evidence.verify.Verification.conflict` over the
-    pairs of maps across the join that meet enough to judge, or None when
-    ``key`` joins two maps linked to nothing else, closes a cycle of
-    ``links``, or no pair across meets enough.
-    """
-    groups = _Groups(len(cells))
-    for link in _by_confidence(links):
-        if link != key and groups.root[link[0]] != groups.root[link[1]]:
-            groups.join(*link, groups.join_of(link, links[link]), bent=False)
-    if groups.root[key[0]] == groups.root[key[1]]:
-        return None
-    found = _worst_across(groups, _PreparedMaps(cells), key, groups.join_of(key, result), params)
-    return None if found is None else float(found[2].conflict)
+    return kept, notes, shares
 
 
 def _by_confidence(pairs: Mapping[Pair, MergeResult]) -> list[Pair]:

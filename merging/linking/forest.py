@@ -14,8 +14,9 @@ of them to trust together:
    :attr:`~merging.params.LinkingParams.bent_contradiction_cells` when a
    pair of the comparison was vouched for as maps that bend (:func:`bends`);
    then, taking the pairs most confident first, it drops a pair that would
-   join two groups of maps when it lays the walls of a map of one group
-   across the open space of a map of the other
+   join two groups of maps (one of more than one map, no pair of either
+   bending) when it lays the walls of a map of one group across the open
+   space of a map of the other
    (:func:`merging.linking.across.contradicted_joins`): maps its own
    verification never saw together;
 3. it links the rest by a maximum spanning forest weighted by confidence
@@ -38,7 +39,7 @@ when grid 0 links to nothing.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -81,7 +82,7 @@ class Linking:
         The pairs the spanning forest uses, most confident first.
     dropped : tuple of (int, int)
         Accepted pairs left out because they contradict the others (module
-        docstring, steps 2 and 5); :attr:`notes` says how far off each is.
+        docstring, steps 2 and 5); :attr:`notes` says why each was.
     groups : tuple of tuple of int
         The linked groups, each sorted, largest first (ties: lowest index
         first); a grid linked to nothing is a group of its own.
@@ -98,6 +99,11 @@ class Linking:
     used : tuple of (int, int)
         The pairs that place the grids: the forest's, and in a group placed
         by all of its pairs (module docstring, step 4) every pair not dropped.
+    across : dict
+        ``(i, j) -> share`` for each pair judged on the maps across the join
+        it made or would have made (:mod:`merging.linking.across`): the
+        largest share of walls on open space, the pair dropped above
+        ``LinkingParams.across_conflict``.
     """
 
     pairs: dict[Pair, MergeResult]
@@ -109,6 +115,7 @@ class Linking:
     transforms_metres: tuple[NDArray[np.float64], ...] | None
     notes: tuple[str, ...]
     used: tuple[Pair, ...] = ()
+    across: dict[Pair, float] = field(default_factory=dict)
 
     @property
     def count(self) -> int:
@@ -246,7 +253,8 @@ def link_maps(
         missing pair counts as not accepted); the matrix takes grid ``j``'s
         cells to grid ``i``'s, and ``matrix_metres`` frame ``j`` to frame ``i``.
     params : LinkingParams, optional
-        How far chained transforms may disagree (default: its documented defaults).
+        How far chained transforms may disagree, and how many walls a join may
+        lay on open space across it (default: its documented defaults).
 
     Returns
     -------
@@ -260,7 +268,7 @@ def link_maps(
     points = [_check_points(c) for c in cells]
     usable = {key: r for key, r in given.items() if r.accepted and np.all(np.isfinite(r.matrix))}
     trusted, notes = consistent_pairs(usable, points, params=params)
-    trusted, across_notes = contradicted_joins(trusted, cells, bends, params=params)
+    trusted, across_notes, across = contradicted_joins(trusted, cells, bends, params=params)
     notes += across_notes
     tree = _spanning_forest(count, trusted)
     roots, transforms = _compose(count, tree, trusted)
@@ -283,7 +291,7 @@ def link_maps(
         )
     notes += late_notes + _unlinked_notes(groups, given)
     return Linking(
-        dict(given), tree, dropped, groups, roots, transforms, metres, tuple(notes), used
+        dict(given), tree, dropped, groups, roots, transforms, metres, tuple(notes), used, across
     )
 
 
@@ -577,12 +585,20 @@ def _contradicting_tree(
 def _unlinked_notes(
     groups: tuple[tuple[int, ...], ...], pairs: Mapping[Pair, MergeResult]
 ) -> list[str]:
-    """A line per grid linked to nothing: its best pair and why it was not accepted."""
+    """A line per grid linked to nothing: its accepted pairs that were dropped, or else its
+    best pair and why it was not accepted."""
     lines = []
     for (k,) in (g for g in groups if len(g) == 1):
         own = [(key, r) for key, r in pairs.items() if k in key]
         if not own:
             lines.append(f"map {k} has no estimate with another map")
+            continue
+        accepted = [f"{i}-{j}" for (i, j), r in own if r.accepted and np.all(np.isfinite(r.matrix))]
+        if accepted:
+            lines.append(
+                f"map {k} not linked: its accepted pairs ({', '.join(accepted)}) were dropped "
+                "as contradicting the others (above)"
+            )
             continue
         (i, j), best = max(own, key=lambda item: item[1].confidence)
         why = f": {best.reason}" if best.reason else ""

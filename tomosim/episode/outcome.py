@@ -79,7 +79,8 @@ class MergeStats:
     rounds : int
         Merge rounds run.
     estimates, accepted, confirmed : int
-        Pair estimates made, accepted by the merger, and confirmed (linking maps).
+        Pair estimates made, accepted by the merger, and confirmed (given to the
+        linking, which may still drop one as contradicting the others).
     wrong : int
         Accepted estimates beyond :data:`WRONG_ROTATION_DEG` or :data:`WRONG_TRANSLATION_M`.
     gross_wrong : int

@@ -209,8 +209,9 @@ class TeamConfig:
         Run the tracker's global searches in a worker process (the results,
         collected at a fixed later round, are the same either way).
     linking : LinkingParams
-        How far chained estimates may disagree before a pair is dropped as
-        contradicting the others (:func:`merging.link_maps`).
+        When a pair is dropped as contradicting the others: how far chained
+        estimates may disagree, and how many walls a join of two groups may
+        lay on open space across it (:func:`merging.link_maps`).
     comms : CommsConfig
         Communication range (default unlimited; :mod:`tomosim.team.comms`).
     simulation : SimulationConfig
