@@ -5,7 +5,7 @@ a merge round accepts is a row: its confidence, its rotation and translation
 errors against the truth, whether it was the pair's first acceptance in the
 episode, whether it was confirmed and whether the linking dropped it, and,
 for a pair joining two linked groups, the share of walls on open space
-across the join that the linking judges it by (``linking.across_conflict``,
+across the join that the linking judged it by (``linking.across_conflict``,
 :mod:`merging.linking.across`). A false match is an estimate beyond 5
 degrees or 1 m of the truth (:mod:`tomosim.episode.outcome`).
 
@@ -40,8 +40,6 @@ from typing import Any
 
 import numpy as np
 
-from merging.grid import validate_cells
-from merging.linking.across import conflict_across
 from tomosim.commands.floor_episodes import (
     add_floor_episode_arguments,
     check_floor_episode_arguments,
@@ -70,9 +68,10 @@ COLUMNS = (
 """The rows' columns: one accepted estimate each; ``first_acceptance`` is 1 for the
 first round that accepted the pair in its episode; ``dropped`` is 1 when the linking
 left a confirmed estimate out as contradicting the others; ``conflict_across`` is the
-share of walls on open space the linking judges a join of two groups by
-(:func:`merging.linking.across.conflict_across`, the round's other links making the
-groups), empty when the pair joins no groups or nothing across meets."""
+share of walls on open space the linking judged a confirmed estimate's join of two
+groups by (:attr:`merging.Linking.across`), empty when it judged none (an estimate
+not confirmed, a join of two single maps, a cycle, maps that bend, too few walls
+meeting)."""
 THRESHOLDS = (0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
 """Confidences the summary counts the first right acceptances and false matches at."""
 TEAM_EXAMPLE = "confirm_at_once_confidence=none"
@@ -84,19 +83,14 @@ whose episodes ran with others is refused rather than mixed."""
 
 def episode_rows(world: int, seed: int, config: EpisodeConfig) -> list[dict[str, Any]]:
     """One episode's rows (:data:`COLUMNS`), in round order."""
-    across: dict[tuple[int, str], float | None] = {}
+    across: dict[tuple[int, str], float] = {}
 
-    def weigh_joins(session: TeamSession, scored: RoundQuality) -> None:
-        """Each accepted pair's share of walls on open space across the join it makes."""
-        linking = scored.merge.linking
-        cells = [validate_cells(grid) for grid in session.grids()]
-        links = {key: linking.pairs[key] for key in linking.tree}
-        for pair in scored.merge.accepted:
-            key = (pair.first, pair.second)
-            share = conflict_across(cells, links, key, pair.result, params=config.team.linking)
-            across[(scored.step, f"r{pair.first}-r{pair.second}")] = share
+    def keep_shares(session: TeamSession, scored: RoundQuality) -> None:
+        """The shares of walls on open space the round's linking judged joins by."""
+        for (first, second), share in scored.merge.linking.across.items():
+            across[(scored.step, f"r{first}-r{second}")] = share
 
-    metrics = run_episode(config, on_merge=weigh_joins)
+    metrics = run_episode(config, on_merge=keep_shares)
     rows = []
     seen: set[str] = set()
     for merge in metrics.merges:
@@ -129,6 +123,7 @@ def episode_rows(world: int, seed: int, config: EpisodeConfig) -> list[dict[str,
 
 
 def _share(value: float | None) -> str | float:
+    """A share as the rows hold it: rounded, empty when there is none."""
     return "" if value is None else round(value, 4)
 
 
@@ -233,7 +228,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     kept = []
     if path.exists():  # rows of an episode that did not finish writing are left out
         with path.open(newline="", encoding="utf-8") as handle:
-            kept = [r for r in csv.DictReader(handle) if f"{r['world']}/{r['seed']}" in done]
+            reader = csv.DictReader(handle)
+            if done and tuple(reader.fieldnames or ()) != COLUMNS:
+                raise SystemExit(
+                    f"{path} was written by an earlier version of this script, without the "
+                    f"columns {', '.join(c for c in COLUMNS if c not in (reader.fieldnames or ()))}"
+                    "; give another --out"
+                )
+            kept = [r for r in reader if f"{r['world']}/{r['seed']}" in done]
     with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=COLUMNS)
         writer.writeheader()

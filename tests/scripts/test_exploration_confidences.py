@@ -33,6 +33,16 @@ def test_rows_mark_each_pairs_first_acceptance_and_a_rerun_resumes(tmp_path: Pat
         confidences.main([*argv, "--team", "confirm_at_once_confidence=none"])
     with (tmp_path / "confidences.csv").open(encoding="utf-8") as handle:
         assert len(list(csv.DictReader(handle))) == len(rows)
+    # A folder of an earlier version, without the newer columns: refused, rows kept.
+    earlier = [c for c in confidences.COLUMNS if c not in ("dropped", "conflict_across")]
+    with (tmp_path / "confidences.csv").open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=earlier, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    with pytest.raises(SystemExit, match="earlier version of this script, without the columns"):
+        confidences.main(argv)
+    with (tmp_path / "confidences.csv").open(encoding="utf-8") as handle:
+        assert len(list(csv.DictReader(handle))) == len(rows)
 
 
 def test_the_summary_counts_first_right_acceptances_and_false_matches_per_threshold() -> None:
