@@ -146,10 +146,14 @@ def _turn(cells: NDArray[np.int8], theta: float) -> tuple[NDArray[np.int8], NDAr
     Returns the canvas and the matrix taking the grid's cells to the canvas's.
     """
     rows, cols = cells.shape
-    side = int(np.ceil(np.hypot(rows, cols))) + 2
-    centre = np.array([(cols - 1) / 2, (rows - 1) / 2])
+    side = int(np.ceil(np.hypot(rows, cols))) + 4
+    # Turned about a whole cell onto a whole cell: a quarter turn then moves every cell
+    # onto a cell, as the nearest-neighbour warp does, and the matrix says so. About
+    # the exact centre, a side whose parity differs from the grid's would leave the
+    # matrix half a cell from where the warp put the cells.
+    centre = np.floor([(cols - 1) / 2, (rows - 1) / 2])
     to_canvas = (
-        translation_matrix([(side - 1) / 2, (side - 1) / 2])
+        translation_matrix([(side - 1) // 2, (side - 1) // 2])
         @ rigid_matrix(0.0, 0.0, theta)
         @ translation_matrix(-centre)
     )

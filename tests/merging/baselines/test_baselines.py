@@ -194,6 +194,20 @@ def test_log_polar_rotation_is_found_modulo_a_half_turn(robot_map: np.ndarray, d
     assert abs(difference) < 0.5
 
 
+@pytest.mark.parametrize("shape", [(100, 140), (101, 140), (120, 160)])
+def test_registration_places_a_shifted_copy_to_the_cell(shape) -> None:
+    # Grids whose sides differ in parity from the turned canvas's once came back
+    # half a cell off in each axis, accepted: the nearest-neighbour warp had moved
+    # the cells a whole cell or none, the matrix kept the half.
+    building = synthetic_building(3, shape)
+    shifted = np.full_like(building, -1)
+    shifted[3:, 7:] = building[:-3, :-7]
+    for map2, truth in ((building.copy(), np.eye(3)), (shifted, rigid_matrix(-7.0, -3.0, 0.0))):
+        result = merging.estimate_transform(building, map2, method="registration")
+        assert result.accepted
+        np.testing.assert_allclose(result.matrix, truth, atol=1e-9)
+
+
 # --- the corner descriptors -------------------------------------------------------------------
 
 
