@@ -10,6 +10,8 @@ in metres, the total time, the empty-map guard).
 
 from __future__ import annotations
 
+import math
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -20,7 +22,7 @@ from numpy.typing import NDArray
 
 from merging.grid import OccupancyGrid, occupied_mask, validate_cells
 from merging.resample import to_resolution
-from merging.result import MergeResult
+from merging.result import MergeResult, checked_result
 from merging.transforms import cells_to_metres
 from merging.validators import RngLike, as_generator, one_of
 
@@ -55,6 +57,9 @@ def register_method(
     ``params_type`` is the type of the settings object the method takes as
     ``params=`` (None: it takes none).
     """
+
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"a merging method's name must be a non-empty str, got {name!r}")
 
     def decorate(function: MergeMethod) -> MergeMethod:
         if name in _METHODS:
@@ -165,6 +170,11 @@ def estimate_transform(
         )
     else:
         result = _METHODS[method](cells1, cells2, rng=generator, **options)
+        # A method may overshoot [0, 1] by rounding: clipped, where NaN is refused below.
+        confidence = getattr(result, "confidence", None)
+        if isinstance(confidence, numbers.Real) and math.isfinite(confidence):
+            result = replace(result, confidence=min(max(float(confidence), 0.0), 1.0))
+        result = checked_result(result, f"the result of method {method!r}")
     timings = dict(result.timings)
     timings["total"] = time.perf_counter() - start
     from_search1 = np.linalg.inv(to_search1)
@@ -172,7 +182,7 @@ def estimate_transform(
     metres = cells_to_metres(matrix, map1, map2) if both_grids else None  # type: ignore[arg-type]
     return MergeResult(
         matrix=matrix,
-        confidence=float(np.clip(result.confidence, 0.0, 1.0)),
+        confidence=float(result.confidence),
         accepted=bool(result.accepted),
         method=method,
         matrix_metres=metres,

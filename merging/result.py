@@ -4,6 +4,7 @@ raise, and `accepted=True` on a wrong transform is the worst failure)."""
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -96,3 +97,41 @@ class MergeResult:
         """Translation ``(dx, dy)`` of :attr:`matrix` in cells."""
         dx, dy, _ = matrix_to_pose(self.matrix)
         return dx, dy
+
+
+def checked_result(result: object, where: str) -> MergeResult:
+    """``result`` if it is a :class:`MergeResult` whose matrix is a finite, invertible,
+    homogeneous 3 x 3 transform, whose confidence is a number in ``[0, 1]`` and whose
+    ``accepted`` is a bool; else raise naming ``where`` (what gave it: a method, a pair
+    given to a linking)."""
+    if not isinstance(result, MergeResult):
+        raise TypeError(f"{where} must be a MergeResult, got {type(result).__name__}")
+    matrix = np.asarray(result.matrix)
+    if (
+        matrix.shape != (3, 3)
+        or not np.issubdtype(matrix.dtype, np.number)
+        or not np.all(np.isfinite(matrix))
+        or not np.allclose(matrix[2], (0.0, 0.0, 1.0))
+        or abs(np.linalg.det(matrix[:2, :2])) < 1e-9
+    ):
+        raise ValueError(
+            f"{where} has the matrix {np.array2string(matrix, precision=3)}: a MergeResult's "
+            "matrix must be a finite, invertible 3 x 3 transform with last row [0, 0, 1] "
+            "(map 2 cells -> map 1 cells)"
+        )
+    confidence = result.confidence
+    if (
+        isinstance(confidence, bool)
+        or not isinstance(confidence, numbers.Real)
+        or not 0.0 <= confidence <= 1.0
+    ):
+        raise ValueError(
+            f"{where} has the confidence {confidence!r}: a MergeResult's confidence must be "
+            "a number in [0, 1]"
+        )
+    if not isinstance(result.accepted, (bool, np.bool_)):
+        raise TypeError(
+            f"{where} has accepted={result.accepted!r}: a MergeResult's accepted must be "
+            "True or False"
+        )
+    return result

@@ -36,6 +36,8 @@ def rotation_about(theta: float, centre: ArrayLike) -> NDArray[np.float64]:
 def matrix_to_pose(matrix: ArrayLike) -> tuple[float, float, float]:
     """``(dx, dy, theta)`` of a rigid matrix, ``theta`` in ``(-pi, pi]``."""
     m = np.asarray(matrix, dtype=float)
+    if m.shape != (3, 3):
+        raise ValueError(f"matrix must be a 3x3 transform, got shape {m.shape}")
     return float(m[0, 2]), float(m[1, 2]), float(np.arctan2(m[1, 0], m[0, 0]))
 
 
@@ -61,6 +63,12 @@ def cells_to_metres(
     :meth:`OccupancyGrid.cell_to_world_matrix`: it takes a point in map 2's
     frame (metres) to map 1's frame (metres).
     """
+    for name, grid in (("grid1", grid1), ("grid2", grid2)):
+        if not isinstance(grid, OccupancyGrid):
+            raise TypeError(
+                f"{name} must be an OccupancyGrid (its resolution and origin place the cells in "
+                f"metres), got {type(grid).__name__}"
+            )
     w1 = grid1.cell_to_world_matrix()
     w2 = grid2.cell_to_world_matrix()
     return w1 @ np.asarray(matrix, dtype=float) @ np.linalg.inv(w2)

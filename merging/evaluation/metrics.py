@@ -190,8 +190,18 @@ def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: MapLike) -> tup
 
 
 def as_matrix(values: ArrayLike) -> NDArray[np.float64]:
-    """Check and return a 3x3 float matrix."""
+    """Check and return a 3x3 float matrix of a 2-D transform (last row ``[0, 0, 1]``)."""
     m = np.asarray(values, dtype=float)
-    if m.shape != (3, 3) or not np.all(np.isfinite(m)):
-        raise ValueError(f"matrix must be a finite 3x3 array, got shape {m.shape}")
+    if m.shape != (3, 3):
+        raise ValueError(f"matrix must be a 3x3 array, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise ValueError(
+            f"matrix must be finite, got {np.array2string(m, precision=3)}; "
+            "give a 3x3 transform, map 2 cells -> map 1 cells"
+        )
+    if not np.allclose(m[2], (0.0, 0.0, 1.0)):
+        raise ValueError(
+            f"matrix must be a homogeneous 2-D transform with last row [0, 0, 1], "
+            f"got last row {m[2].tolist()}"
+        )
     return m

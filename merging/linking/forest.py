@@ -38,6 +38,7 @@ when grid 0 links to nothing.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -53,7 +54,7 @@ from merging.linking.across import contradicted_joins
 from merging.linking.fusion import FusedMap, fuse
 from merging.linking.posegraph import adjust_poses
 from merging.params import DEFAULT_LINKING, LinkingParams
-from merging.result import MergeResult
+from merging.result import MergeResult, checked_result
 from merging.transforms import apply_transform, cells_to_metres, matrix_to_pose, wrap_angle
 from merging.validators import RngLike, as_generator
 
@@ -380,15 +381,21 @@ def _check_pairs(pairs: Mapping[Pair, MergeResult], count: int) -> dict[Pair, Me
     """``pairs`` as a dict sorted by key, after checking keys and values."""
     if not isinstance(pairs, Mapping):
         raise TypeError(f"pairs must map (i, j) to MergeResult, got {type(pairs).__name__}")
+    for key in pairs:
+        if not (
+            isinstance(key, tuple)
+            and len(key) == 2
+            and all(isinstance(k, numbers.Integral) and not isinstance(k, bool) for k in key)
+        ):
+            raise ValueError(
+                f"pairs must be keyed by (i, j), two whole grid indices, got the key {key!r}"
+            )
     checked = {}
     for key in sorted(pairs):
         i, j = key
         if not (0 <= i < j < count):
             raise ValueError(f"pair {key} must be (i, j) with 0 <= i < j < {count}")
-        result = pairs[key]
-        if not isinstance(result, MergeResult):
-            raise TypeError(f"pairs[{key}] must be a MergeResult, got {type(result).__name__}")
-        checked[(int(i), int(j))] = result
+        checked[(int(i), int(j))] = checked_result(pairs[key], f"pairs[{key}]")
     return checked
 
 

@@ -51,6 +51,53 @@ def test_unknown_method_is_named() -> None:
         merging.estimate_transform(grid, grid, method="nope")
 
 
+@pytest.mark.parametrize(
+    ("returned", "error", "message"),
+    [
+        (None, TypeError, "method 'misbehaving' must be a MergeResult, got NoneType"),
+        ({"confidence": float("nan")}, ValueError, "method 'misbehaving' has the confidence nan"),
+        ({"matrix": np.full((3, 3), np.nan)}, ValueError, "has the matrix"),
+        ({"matrix": np.eye(2)}, ValueError, "3 x 3"),
+        ({"accepted": "yes"}, TypeError, "accepted='yes'"),
+    ],
+)
+def test_a_method_returning_what_the_contract_forbids_is_named(
+    monkeypatch, returned, error, message
+) -> None:
+    # Once passed on as it was: a NaN confidence accepted, a 2 x 2 matrix failing in
+    # the frame change with numpy's words.
+    def misbehaving(cells1, cells2, *, rng):
+        if returned is None:
+            return None
+        fields = {"matrix": np.eye(3), "confidence": 0.9, "accepted": True, **returned}
+        return merging.MergeResult(method="misbehaving", **fields)
+
+    monkeypatch.setitem(merging.api._METHODS, "misbehaving", misbehaving)
+    monkeypatch.setitem(merging.api._PARAMS_TYPES, "misbehaving", None)
+    grid = np.zeros((20, 20), dtype=np.int8)
+    grid[5, :] = grid[:, 5] = 100
+    with pytest.raises(error, match=message):
+        merging.estimate_transform(grid, grid, method="misbehaving")
+
+
+def test_a_method_overshooting_its_confidence_by_rounding_is_clipped(monkeypatch) -> None:
+    def overshooting(cells1, cells2, *, rng):
+        return merging.MergeResult(np.eye(3), 1.0 + 1e-12, True, "overshooting")
+
+    monkeypatch.setitem(merging.api._METHODS, "overshooting", overshooting)
+    monkeypatch.setitem(merging.api._PARAMS_TYPES, "overshooting", None)
+    grid = np.zeros((20, 20), dtype=np.int8)
+    grid[5, :] = grid[:, 5] = 100
+    assert merging.estimate_transform(grid, grid, method="overshooting").confidence == 1.0
+
+
+@pytest.mark.parametrize("name", [5, "", None])
+def test_a_method_name_must_be_text(name) -> None:
+    with pytest.raises(TypeError, match="non-empty str"):
+        merging.api.register_method(name)  # type: ignore[arg-type]
+    assert all(isinstance(known, str) for known in merging.available_methods())
+
+
 def test_maps_of_different_resolutions_are_merged(building) -> None:
     # The same building at 0.05 m and, coarsened by max-pooling, at 0.1 m: the cell
     # matrix scales by 2 and the transform in metres is the frames' offset.
@@ -79,6 +126,19 @@ def _walls_on_walls(fused: merging.FusedMap, index: int, cells: np.ndarray) -> f
     x, y = placed.astype(int).T
     inside = (x >= 0) & (y >= 0) & (x < fused.cells.shape[1]) & (y < fused.cells.shape[0])
     return float(np.mean(inside & (fused.cells[y.clip(0), x.clip(0)] == 100)))
+
+
+def test_a_map_far_coarser_than_the_grid_is_one_cell_not_terabytes() -> None:
+    # A whole factor once padded the grid to the factor's square before reducing it.
+    cells = np.full((30, 40), -1, dtype=np.int8)
+    cells[3, 4], cells[20, 30] = 0, 100
+    grid = OccupancyGrid(cells, resolution=0.05)
+    coarse, _ = to_resolution(grid, 0.05 * 10**9)
+    np.testing.assert_array_equal(coarse.data, [[100]])
+    with pytest.raises(ValueError, match="not a finite number"):
+        to_resolution(OccupancyGrid(cells, resolution=1e-300), 1e300)
+    result = merging.estimate_transform(grid, OccupancyGrid(cells, resolution=1e-9))
+    assert not result.accepted and "too few occupied cells" in result.reason
 
 
 def test_a_finer_map_2_is_placed_by_its_own_cells(building) -> None:

@@ -101,3 +101,11 @@ def test_halfway_turns_by_the_mean_angle_and_lays_the_centroid_halfway() -> None
     expected = (apply_transform(a, centre) + apply_transform(b, centre)) / 2
     assert apply_transform(between, centre) == pytest.approx(expected)
     np.testing.assert_allclose(halfway(a, a, points), a, atol=1e-12)
+
+
+def test_the_helpers_name_what_they_cannot_take() -> None:
+    # Once an IndexError and an AttributeError from inside.
+    with pytest.raises(ValueError, match=r"3x3 transform, got shape \(2, 2\)"):
+        matrix_to_pose(np.eye(2))
+    with pytest.raises(TypeError, match="grid2 must be an OccupancyGrid"):
+        cells_to_metres(np.eye(3), OccupancyGrid(np.zeros((2, 2), np.int8)), np.zeros((2, 2)))  # type: ignore[arg-type]

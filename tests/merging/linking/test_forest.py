@@ -158,6 +158,33 @@ def test_merge_all_validates_its_input() -> None:
         link_maps([cells, cells], table_pairs({(1, 0): (np.eye(3), 0.9, True)}))
 
 
+@pytest.mark.parametrize(
+    ("key", "matrix", "confidence", "accepted", "error", "message"),
+    [
+        ((0, 1), np.zeros((3, 3)), 0.9, True, ValueError, r"pairs\[\(0, 1\)\] has the matrix"),
+        ((0, 1), np.diag([0.0, 0.0, 1.0]), 0.9, True, ValueError, "invertible"),
+        ((0, 1), np.eye(2), 0.9, True, ValueError, "3 x 3"),
+        ((0, 1), np.full((3, 3), np.nan), 0.9, True, ValueError, "finite"),
+        ((0, 1), np.eye(3), 2.0, True, ValueError, r"confidence 2\.0.*in \[0, 1\]"),
+        ((0, 1), np.eye(3), float("nan"), True, ValueError, "confidence nan"),
+        ((0, 1), np.eye(3), "high", True, ValueError, "confidence 'high'"),
+        ((0, 1), np.eye(3), 0.9, "no", TypeError, "accepted='no'"),
+        ((0.5, 1), np.eye(3), 0.9, True, ValueError, r"two whole grid indices, got the key \(0\.5"),
+        (("0", "1"), np.eye(3), 0.9, True, ValueError, "two whole grid indices"),
+        (0, np.eye(3), 0.9, True, ValueError, "keyed by"),
+    ],
+)
+def test_link_maps_refuses_a_pair_it_cannot_link_naming_it(
+    key, matrix, confidence, accepted, error, message
+) -> None:
+    # Such pairs once failed deep in the linking (a singular system, a matmul of the
+    # wrong shape) or were linked as they were (a confidence of 2 as no edge at all).
+    cells = random_room_map((8, 9), seed=12)
+    result = MergeResult(matrix=matrix, confidence=confidence, accepted=accepted, method="own")
+    with pytest.raises(error, match=message):
+        link_maps([cells, cells], {key: result})
+
+
 def test_single_grid_is_its_own_fusion() -> None:
     cells = random_room_map((8, 9), seed=12)
     result = merge_all([cells])
