@@ -137,6 +137,9 @@ class RotationParams:
         _check_fields(
             self, positive=("angle_step_deg", "peaks"), fractions=("max_frequency_fraction",)
         )
+        # Two samples per half turn at least; below a hundredth of a degree the spectra
+        # grow past memory without a finer answer (the peaks are refined afterwards).
+        real_number(self.angle_step_deg, "RotationParams.angle_step_deg", low=0.01, high=90.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -197,7 +200,12 @@ class TranslationParams:
     reverse_penalty: float = 1.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("coarse_cells", "peaks"))
+        _check_fields(self, positive=("coarse_cells", "peaks", "wall_blur"))
+        # A blur as wide as the coarse grid smears every wall over the whole map.
+        real_number(
+            self.wall_blur, "TranslationParams.wall_blur", low=0.0, high=self.coarse_cells,
+            low_open=True, unit="blocks",
+        )  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True)
@@ -729,6 +737,9 @@ class GaussNewtonParams:
             ),
             fractions=("whole_field_share",),
         )
+        real_number(self.damping, "GaussNewtonParams.damping", low=0.0)
+        # A curvature of three parameters (turn and shift) needs three cells at least.
+        whole_number(self.curvature_points, "GaussNewtonParams.curvature_points", minimum=3)
 
 
 @dataclass(frozen=True, slots=True)
@@ -923,7 +934,7 @@ class TomographicParams:
     near_rival_cells: float = 2.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("near_rival_turns", "near_rival_cells"))
+        _check_fields(self, positive=("near_rival_turns", "near_rival_cells", "distinct_cells"))
         for name in ("stages", "mirror_stages"):
             _check_schedule(name, getattr(self, name))
 

@@ -50,6 +50,14 @@ def test_settings_change_nested_copies_and_are_listed() -> None:
         ({"translation.peaks": "three"}, "translation.peaks takes int values"),
         ({"from_start.local": "maybe"}, "from_start.local is a switch"),
         ({"confidence.accept": "2"}, "accept"),  # the settings object's own check
+        # Each of these once passed its check and failed deep in the search, with
+        # words that named no setting, or asked for terabytes.
+        ({"translation.wall_blur": "0"}, "wall_blur must be a positive number"),
+        ({"translation.wall_blur": "1e9"}, r"wall_blur must be a number of blocks in \(0, 160\]"),
+        ({"rotation.angle_step_deg": "1e-9"}, r"angle_step_deg must be a number in \[0.01, 90\]"),
+        ({"gauss_newton.curvature_points": "1"}, "curvature_points must be a whole number >= 3"),
+        ({"gauss_newton.damping": "-1"}, "damping must be a non-negative number"),
+        ({"distinct_cells": "-1"}, "distinct_cells must be a positive number"),
     ],
 )
 def test_bad_settings_are_named(settings: dict[str, str], message: str) -> None:
