@@ -41,9 +41,13 @@ def coarsen_cells(cells: NDArray[np.int8], factor: float) -> NDArray[np.int8]:
     """
     if not factor > 1.0:
         raise ValueError(f"factor must exceed 1 (a coarser grid), got {factor}")
+    if not np.isfinite(factor):
+        raise ValueError(f"factor must be a finite number, got {factor}")
     rows, cols = cells.shape
     whole = round(factor)
-    if abs(factor - whole) < SAME_RESOLUTION * factor:
+    # Whole blocks no larger than the grid: a larger block would pad it to the
+    # block's size squared (a factor of a million: terabytes) for one coarse cell.
+    if abs(factor - whole) < SAME_RESOLUTION * factor and whole <= max(rows, cols):
         # Whole blocks: pad with unknown to a multiple of the block and reduce.
         padded = np.full((-(-rows // whole) * whole, -(-cols // whole) * whole), UNKNOWN, np.int8)
         padded[:rows, :cols] = cells
@@ -73,6 +77,11 @@ def to_resolution(
         every wall without inventing detail.
     """
     factor = resolution / grid.resolution
+    if not np.isfinite(factor):
+        raise ValueError(
+            f"cannot resample a {grid.resolution} m grid to {resolution} m: their ratio is "
+            "not a finite number"
+        )
     if abs(factor - 1.0) < SAME_RESOLUTION:
         return grid, np.eye(3)
     if factor < 1.0:

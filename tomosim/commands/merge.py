@@ -103,7 +103,11 @@ def run(args: argparse.Namespace) -> int:
     if args.demo is not None:
         paths, truth = write_demo(args.demo, output)
     # Maps of different resolutions are brought to the coarsest (each keeps its frame).
-    grids = common_resolution([read_map(path) for path in paths])
+    maps = [read_map(path) for path in paths]
+    try:
+        grids = common_resolution(maps)
+    except ValueError as exc:
+        raise CommandError(f"cannot bring the maps to one resolution: {one_line(exc)}") from exc
     image = output.with_suffix(".pgm").resolve()  # save_map writes the image beside the YAML
     for path in paths:
         if map_image(path).resolve() == image:

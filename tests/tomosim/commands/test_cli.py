@@ -256,6 +256,21 @@ def test_merge_maps_of_different_resolutions(
     assert abs(fine_pose["theta_deg"] - coarse_pose["theta_deg"]) < 0.5
 
 
+def test_merge_maps_whose_resolutions_have_no_ratio_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Resampling once ran outside the command's error handling: a raw traceback.
+    cells = np.zeros((20, 20), dtype=np.int8)
+    cells[5, :] = 100
+    paths = [tmp_path / "tiny.yaml", tmp_path / "huge.yaml"]
+    for path, resolution in zip(paths, (1e-300, 1e300), strict=True):
+        save_map(OccupancyGrid(cells, resolution=resolution), path)
+    status, _, err = run(["merge", *map(str, paths), "-o", str(tmp_path / "m.yaml")], capsys)
+    assert status == 1
+    assert_one_line_error(err, "cannot bring the maps to one resolution")
+    assert not (tmp_path / "m.yaml").exists()
+
+
 def test_table_output_is_aligned(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
