@@ -18,6 +18,7 @@ into the grey level of colour images; a map's image rarely has one).
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import IO, Any
@@ -133,21 +134,30 @@ def load_map(source: str | Path) -> OccupancyGrid:
     if not isinstance(meta["origin"], list | tuple):
         raise ValueError(f"{path}: origin must be a list [x, y, yaw], got {meta['origin']!r}")
 
-    def number(key: str, kind: type, default: object = None) -> Any:
+    def number(key: str, default: object = None) -> Any:
         value = meta.get(key, default)
+        values = value if key == "origin" else [value]
+        # YAML reads ``true`` as a bool, which float() would take for 1.
+        if any(isinstance(v, bool) for v in values):
+            raise ValueError(f"{path}: {key} must be a number, got {value!r}")
         try:
-            return [kind(v) for v in value] if key == "origin" else kind(value)
+            numbers = [float(v) for v in values]
         except (TypeError, ValueError) as exc:
             raise ValueError(
                 f"{path}: {key} must be {'numbers' if key == 'origin' else 'a number'}, "
                 f"got {value!r}"
             ) from exc
+        if not all(math.isfinite(v) for v in numbers):
+            raise ValueError(f"{path}: {key} must be finite, got {value!r}")
+        return numbers if key == "origin" else numbers[0]
 
-    resolution = number("resolution", float)
-    origin_values = number("origin", float)
-    negate = number("negate", int, 0)
-    occupied_thresh = number("occupied_thresh", float, 0.65)
-    free_thresh = number("free_thresh", float, 0.196)
+    resolution = _positive_resolution(path, meta["resolution"])
+    origin_values = number("origin")
+    negate = meta.get("negate", 0)
+    if negate not in (0, 1):  # True and False are 1 and 0 too
+        raise ValueError(f"{path}: negate must be 0 or 1, got {negate!r}")
+    occupied_thresh = number("occupied_thresh", 0.65)
+    free_thresh = number("free_thresh", 0.196)
     if len(origin_values) != 3:
         raise ValueError(f"{path}: origin must be [x, y, yaw], got {meta['origin']}")
     mode = str(meta.get("mode", "trinary"))
@@ -165,6 +175,13 @@ def load_map(source: str | Path) -> OccupancyGrid:
     except UnidentifiedImageError as exc:
         raise ValueError(
             f"image {image_path} named by {path} is not an image Pillow can read; give a PGM or PNG"
+        ) from exc
+    except FileNotFoundError:
+        raise
+    except OSError as exc:  # a truncated or damaged file of a known format
+        raise ValueError(
+            f"image {image_path} named by {path} cannot be read ({' '.join(str(exc).split())}); "
+            "save the map again"
         ) from exc
     data = pixels_to_cells(
         pixels,
@@ -198,12 +215,21 @@ def map_header(path: Path) -> tuple[Path, float]:
     """
     meta = _map_meta(path)
     image = _image_of(path, meta)
+    return image, _positive_resolution(path, meta["resolution"])
+
+
+def _positive_resolution(path: Path, value: object) -> float:
+    """A map's ``resolution`` entry as metres per cell, or a ValueError naming ``path``."""
+    message = f"{path}: resolution must be a positive number of metres, got {value!r}"
+    if isinstance(value, bool):  # YAML's true, which float() would take for 1
+        raise ValueError(message)
     try:
-        resolution = float(meta["resolution"])
+        metres = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:
-        value = meta["resolution"]
-        raise ValueError(f"{path}: resolution must be a number, got {value!r}") from exc
-    return image, resolution
+        raise ValueError(message) from exc
+    if not (math.isfinite(metres) and metres > 0):
+        raise ValueError(message)
+    return metres
 
 
 def _map_meta(path: Path) -> dict[str, Any]:

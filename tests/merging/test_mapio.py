@@ -155,7 +155,13 @@ def test_missing_image_is_file_not_found(tmp_path: Path) -> None:
         ("- just\n- a list\n", "mapping"),
         ("image: map.png\nresolution: 0.05\n", "origin"),
         ("image: map.png\norigin: [0, 0, 0]\n", "resolution"),
-        ("image: map.png\nresolution: fine\norigin: [0, 0, 0]\n", "resolution must be a number"),
+        ("image: map.png\nresolution: fine\norigin: [0, 0, 0]\n", "resolution must be a positive"),
+        # These were read as they were (true as 1 m, 0.7 as 0) or refused without the file.
+        ("image: map.png\nresolution: -0.05\norigin: [0, 0, 0]\n", r"bad\.yaml: resolution must"),
+        ("image: map.png\nresolution: .nan\norigin: [0, 0, 0]\n", r"bad\.yaml: resolution must"),
+        ("image: map.png\nresolution: true\norigin: [0, 0, 0]\n", r"resolution .* got True"),
+        ("image: map.png\nresolution: 0.05\norigin: [.nan, 0, 0]\n", "origin must be finite"),
+        ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0.7\n", "negate must be 0"),
         ("image: map.png\nresolution: 0.05\norigin: [0, a, 0]\n", "origin must be numbers"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 'no'\n", "negate must"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0]\n", r"\[x, y, yaw\]"),
@@ -299,6 +305,16 @@ def test_a_yaml_naming_a_file_that_is_not_an_image_is_named(tmp_path: Path) -> N
     path = tmp_path / "map.yaml"
     path.write_text("image: notes.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
     with pytest.raises(ValueError, match=r"notes\.png named by .*map\.yaml is not an image"):
+        load_map(path)
+
+
+def test_a_truncated_image_is_named_with_the_map(tmp_path: Path) -> None:
+    Image.fromarray(np.zeros((60, 80), np.uint8)).save(tmp_path / "map.png")
+    whole = (tmp_path / "map.png").read_bytes()
+    (tmp_path / "map.png").write_bytes(whole[: len(whole) // 2])
+    path = tmp_path / "map.yaml"
+    path.write_text("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match=r"map\.png named by .*map\.yaml cannot be read"):
         load_map(path)
 
 
