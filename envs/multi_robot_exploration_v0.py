@@ -322,6 +322,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
         self.max_cycles = int(max_cycles)
         self.coverage_target = float(coverage_target)
         self._warned_done_at_start = False  # said once per environment
+        self._warned_step_after_end = False
         self.crop_size = int(crop_size)
         self.pool = int(pool)
         self._bound = pose_bound(self.world)
@@ -392,6 +393,7 @@ class MultiRobotExplorationEnv(ParallelEnv):
                 self.world, robots=len(self.possible_agents), config=self.team_config, rng=generator
             )
             self.agents = list(self.possible_agents)
+            self._warned_step_after_end = False
             self._tracker = ExplorationTracker(self.session)
             self._pair_counts[:] = 0
             start = self.session.coverage.fraction
@@ -422,6 +424,12 @@ class MultiRobotExplorationEnv(ParallelEnv):
         if session is None:
             raise RuntimeError("call reset() before step()")
         if not self.agents:
+            if not self._warned_step_after_end:  # said once per episode
+                self._warned_step_after_end = True
+                LOG.warning(
+                    "step() after the episode ended: every robot is done, so nothing moves and "
+                    "the dicts are empty; call reset() to start the next episode"
+                )
             return {}, {}, {}, {}, {}
         if not isinstance(actions, Mapping):
             raise TypeError(

@@ -179,6 +179,10 @@ def test_bad_arguments_are_rejected() -> None:
         small_env(crop_resolution=0.07)
     with pytest.raises(ValueError, match="robots"):
         small_env(robots=0)
+    # Once unpacked as they were: "too many values to unpack" and the like.
+    for size in ((30, 20, 1), 30, "30x20"):
+        with pytest.raises(ValueError, match=r"world_size must be \(width, height\)"):
+            small_env(world_size=size)
     env = small_env()
     env.reset(seed=0)
     bad = (np.array([np.nan, 0.0]), "ab", {"lin": 1}, [1, [2, 3]], [1 + 2j, 0], ["0.5", "1"])
@@ -190,6 +194,19 @@ def test_bad_arguments_are_rejected() -> None:
     for seed in (-1, 1.5, True):
         with pytest.raises(ValueError, match="seed must be a whole number"):
             env.reset(seed=seed)  # type: ignore[arg-type]
+
+
+def test_a_step_after_the_end_is_said_once_per_episode(caplog: pytest.LogCaptureFixture) -> None:
+    env = small_env(max_cycles=1)
+    with caplog.at_level("WARNING", logger="envs.multi_robot_exploration_v0"):
+        for seed in (0, 1):
+            env.reset(seed=seed)
+            env.step({agent: np.zeros(2) for agent in env.agents})
+            assert not env.agents
+            for _ in range(3):
+                assert env.step({}) == ({}, {}, {}, {}, {})
+    said = [r.getMessage() for r in caplog.records if "after the episode ended" in r.getMessage()]
+    assert len(said) == 2 and "reset()" in said[0]
 
 
 def test_a_start_that_already_meets_the_target_is_said(caplog: pytest.LogCaptureFixture) -> None:

@@ -60,6 +60,8 @@ def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = Non
     if isinstance(spec, int | np.integer) and not isinstance(spec, bool):
         if spec < 0:
             raise ValueError(f"a world seed must be a non-negative integer, got {spec}")
+        if size is not None:
+            _check_world_size(size)
         width, height = size if size is not None else (None, None)
         return generate_floorplan(int(spec), width=width, height=height)
     if not isinstance(spec, str | Path):
@@ -75,7 +77,12 @@ def load_world(spec: int | str | Path, *, size: tuple[float, float] | None = Non
 def _check_world_size(size: tuple[float, float]) -> None:
     """Raise naming ``world_size`` unless ``size`` is two positive numbers of metres."""
     message = f"world_size must be (width, height), two positive numbers of metres, got {size!r}"
-    sides = tuple(size)
+    if isinstance(size, str):
+        raise ValueError(message)
+    try:
+        sides = tuple(size)
+    except TypeError:
+        raise ValueError(message) from None
     if len(sides) != 2:
         raise ValueError(message)
     for side in sides:
