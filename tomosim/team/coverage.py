@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from merging.grid import OccupancyGrid
 from tomosim.frames import pose_matrix
 from tomosim.kernels.reveal import first_of_keys, reveal_team
+from tomosim.mapping import MAX_GRID_SIDE_CELLS
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
 
@@ -121,6 +122,15 @@ class TeamCoverage:
             raise ValueError(f"start_poses must have shape (N, 3), got {starts.shape}")
         if not (math.isfinite(resolution) and resolution > 0):
             raise ValueError(f"resolution must be a positive number of metres, got {resolution}")
+        # The lattice of a robot's grid, turned with its start, spans the world's diagonal.
+        height, width = (side * world.resolution for side in world.truth.data.shape)
+        span = math.hypot(width, height) / resolution
+        if span > MAX_GRID_SIDE_CELLS:
+            raise ValueError(
+                f"the world is {width:g} m x {height:g} m, {span:.0f} cells across at the "
+                f"robots' {resolution} m a cell, more than a grid holds ({MAX_GRID_SIDE_CELLS} "
+                "a side); check the map's resolution (metres per cell)"
+            )
         self.resolution = float(resolution)
         self.region = world.explorable
         self.cell_area = world.resolution**2

@@ -28,6 +28,7 @@ from tomosim.team import (
 )
 from tomosim.team.merger import HELD_ONLY
 from tomosim.worlds import World, generate_floorplan
+from tomosim.worlds.from_map import world_from_grid
 
 SMALL_FLOOR = {"width": 12.0, "height": 9.0}
 """A floor small enough for quick tests: a few rooms and a corridor."""
@@ -468,6 +469,15 @@ def test_team_coverage_refuses_grids_of_another_resolution() -> None:
     right = TeamCoverage(world, [(0.0, 0.0, 0.0)], resolution=0.1)
     right.update([coarse])
     assert right.fraction > 0.95
+
+
+def test_team_coverage_refuses_a_world_no_grid_can_hold_naming_its_size() -> None:
+    # A 60 x 80 map saved at 1e6 m a cell once failed with numpy's "array is too big".
+    cells = np.zeros((60, 80), dtype=np.int8)
+    cells[[0, -1], :] = cells[:, [0, -1]] = 100
+    world = world_from_grid(OccupancyGrid(cells, resolution=1e6))
+    with pytest.raises(ValueError, match=r"the world is 8e\+07 m x 6e\+07 m.*resolution"):
+        TeamCoverage(world, [(1e6, 1e6, 0.0)], resolution=0.05)
 
 
 @pytest.mark.parametrize("matrix", [np.diag([2.0, 2.0, 1.0]), np.diag([1.0, -1.0, 1.0])])
