@@ -113,6 +113,12 @@ def validate_cells(cells: object, *, name: str = "map") -> NDArray[np.int8]:
     return cells.astype(np.int8)
 
 
+MAX_ORIGIN_METRES = 1e9
+"""Farthest a grid's origin may lie from its frame's zero (x and y): a million
+kilometres is a unit mistake, and past about 1e15 m a float no longer tells cells of
+0.05 m apart (origins of 1e308 m made the transform in metres NaN)."""
+
+
 @dataclass(frozen=True, slots=True)
 class OccupancyGrid:
     """An occupancy grid in the ROS coding, with its place in the world.
@@ -147,6 +153,11 @@ class OccupancyGrid:
             values = tuple(real_number(v, "origin") for v in origin)
         except ValueError:
             raise ValueError(message) from None
+        if max(abs(values[0]), abs(values[1])) > MAX_ORIGIN_METRES:
+            raise ValueError(
+                f"origin {origin!r} lies more than {MAX_ORIGIN_METRES:g} m from its frame's "
+                "zero; give it in metres"
+            )
         object.__setattr__(self, "origin", values)
 
     @classmethod

@@ -149,6 +149,9 @@ def test_grid_validates_resolution_and_origin_and_is_frozen() -> None:
     for origin in (None, 5, "123", (0.0, 0.0, True)):
         with pytest.raises(ValueError, match="origin must be three finite numbers"):
             OccupancyGrid(data, origin=origin)  # type: ignore[arg-type]
+    # Origins of 1e308 m once made an accepted merge's transform in metres NaN.
+    with pytest.raises(ValueError, match=r"origin \(1e\+308, 0\.0, 0\.0\) lies more than 1e\+09 m"):
+        OccupancyGrid(data, origin=(1e308, 0.0, 0.0))
     assert OccupancyGrid(data, resolution=np.float32(0.1), origin=np.zeros(3)).origin == (0, 0, 0)
     grid = OccupancyGrid(data)
     assert grid.shape == (2, 2)
