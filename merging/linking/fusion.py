@@ -115,6 +115,13 @@ def _cell_box(shape: tuple[int, int], matrix: NDArray[np.float64]) -> NDArray[np
     moved = apply_transform(matrix, corners)
     low = np.ceil(moved.min(axis=0) - EDGE_TOLERANCE)
     high = np.floor(moved.max(axis=0) + EDGE_TOLERANCE)
+    # Checked before the cast: past 2**63 the integers wrap and slip past the size check.
+    if not np.all(np.abs([low, high]) <= MAX_FUSED_CELLS):
+        raise ValueError(
+            f"a map would land {np.abs([low, high]).max():.3g} cells from the frame's zero, "
+            "farther than a fused grid reaches; check the transforms, their translations "
+            "look too large"
+        )
     return np.array([low, high]).astype(np.int64)
 
 
