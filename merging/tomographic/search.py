@@ -123,6 +123,7 @@ from merging.tomographic.correlate import Peak, coarse_factor
 from merging.tomographic.hypotheses import ranked_pool, search_hypotheses
 from merging.tomographic.judging import judged, verdict_on_pool
 from merging.transforms import cells_to_metres, translation_matrix
+from merging.validators import boolean
 
 
 def tomographic_merge(
@@ -341,6 +342,7 @@ def refine_from(
         )
     if not isinstance(params, TomographicParams):
         raise TypeError(f"params must be a TomographicParams, got {type(params).__name__}")
+    held_against_search = boolean(held_against_search, "held_against_search")
     if (
         isinstance(map1, OccupancyGrid)
         and isinstance(map2, OccupancyGrid)

@@ -305,6 +305,8 @@ def test_refine_from_validates_its_input(building: np.ndarray) -> None:
         refine_from(building, building, np.eye(3), params=object())  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="singular"):
         refine_from(building, building, np.diag([1.0, 0.0, 1.0]))
+    with pytest.raises(ValueError, match="held_against_search must be True or False"):
+        refine_from(building, building, np.eye(3), held_against_search="no")  # type: ignore[arg-type]
     grid = merging.OccupancyGrid(building)
     result = refine_from(grid, grid, rigid_matrix(0.8, -0.5, 0.002))
     assert result.accepted
