@@ -45,9 +45,10 @@ def coarsen_cells(cells: NDArray[np.int8], factor: float) -> NDArray[np.int8]:
         raise ValueError(f"factor must be a finite number, got {factor}")
     rows, cols = cells.shape
     whole = round(factor)
-    # Whole blocks no larger than the grid: a larger block would pad it to the
-    # block's size squared (a factor of a million: terabytes) for one coarse cell.
-    if abs(factor - whole) < SAME_RESOLUTION * factor and whole <= max(rows, cols):
+    # Whole blocks that fit the grid's short side: a longer block pads that side to the
+    # block's length (a factor of a million on a square grid: terabytes); the runs
+    # below give the same cells for any factor.
+    if abs(factor - whole) < SAME_RESOLUTION * factor and whole <= min(rows, cols):
         # Whole blocks: pad with unknown to a multiple of the block and reduce.
         padded = np.full((-(-rows // whole) * whole, -(-cols // whole) * whole), UNKNOWN, np.int8)
         padded[:rows, :cols] = cells
