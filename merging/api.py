@@ -10,7 +10,6 @@ in metres, the total time, the empty-map guard).
 
 from __future__ import annotations
 
-import math
 import numbers
 import time
 from collections.abc import Callable
@@ -44,6 +43,10 @@ class MergeMethod(Protocol):
         **options: Any,
     ) -> MergeResult: ...
 
+
+ROUNDING = 1e-9
+"""How far outside [0, 1] a method's confidence may come back and be clipped, as the
+rounding of a product of factors; farther is an error of the method."""
 
 _METHODS: dict[str, MergeMethod] = {}
 _PARAMS_TYPES: dict[str, type | None] = {}
@@ -170,9 +173,14 @@ def estimate_transform(
         )
     else:
         result = _METHODS[method](cells1, cells2, rng=generator, **options)
-        # A method may overshoot [0, 1] by rounding: clipped, where NaN is refused below.
+        # A product of factors may overshoot [0, 1] by rounding; more than that is refused.
         confidence = getattr(result, "confidence", None)
-        if isinstance(confidence, numbers.Real) and math.isfinite(confidence):
+        if (
+            isinstance(result, MergeResult)
+            and isinstance(confidence, numbers.Real)
+            and not isinstance(confidence, bool)
+            and -ROUNDING <= float(confidence) <= 1.0 + ROUNDING
+        ):
             result = replace(result, confidence=min(max(float(confidence), 0.0), 1.0))
         result = checked_result(result, f"the result of method {method!r}")
     timings = dict(result.timings)

@@ -59,6 +59,9 @@ def test_unknown_method_is_named() -> None:
         ({"matrix": np.full((3, 3), np.nan)}, ValueError, "has the matrix"),
         ({"matrix": np.eye(2)}, ValueError, "3 x 3"),
         ({"accepted": "yes"}, TypeError, "accepted='yes'"),
+        # Clipped only within rounding: more is the method's error, a bool no number.
+        ({"confidence": 5.0}, ValueError, "has the confidence 5.0"),
+        ({"confidence": True}, ValueError, "has the confidence True"),
     ],
 )
 def test_a_method_returning_what_the_contract_forbids_is_named(
