@@ -49,6 +49,9 @@ neither drop a row of the canvas nor add an empty one."""
 AFFINE_TOLERANCE = 1e-9
 """Largest deviation of a matrix's last row from ``[0, 0, 1]`` that is taken as
 rounding; a larger one is a projective matrix, which grids cannot be warped by."""
+MAX_CELL_COORDINATE = 2.0**62
+"""Farthest a map may be laid from the common frame's zero, in cells: the fused grid's
+corners are integers of 64 bits."""
 MAX_FUSED_CELLS = 50_000_000
 """Largest fused canvas, in cells (about 7000 x 7000, a few gigabytes of warping
 work); a wrong transform with a huge translation must fail, not exhaust memory."""
@@ -115,13 +118,6 @@ def _cell_box(shape: tuple[int, int], matrix: NDArray[np.float64]) -> NDArray[np
     moved = apply_transform(matrix, corners)
     low = np.ceil(moved.min(axis=0) - EDGE_TOLERANCE)
     high = np.floor(moved.max(axis=0) + EDGE_TOLERANCE)
-    # Checked before the cast: past 2**63 the integers wrap and slip past the size check.
-    if not np.all(np.abs([low, high]) <= MAX_FUSED_CELLS):
-        raise ValueError(
-            f"a map would land {np.abs([low, high]).max():.3g} cells from the frame's zero, "
-            "farther than a fused grid reaches; check the transforms, their translations "
-            "look too large"
-        )
     return np.array([low, high]).astype(np.int64)
 
 
@@ -193,6 +189,14 @@ def fuse(
         for k in used:
             cells[k], corner = observed_part(cells[k])
             moves[k] = moves[k] @ _translation(float(corner[0]), float(corner[1]))
+    for k in used:
+        # Past 2**62 cells the boxes' integers would wrap and slip past the size check.
+        if not np.all(np.abs(moves[k][:2, 2]) < MAX_CELL_COORDINATE):
+            raise ValueError(
+                f"{called[k][1]} lays {called[k][0]} {np.abs(moves[k][:2, 2]).max():.3g} cells "
+                "from the frame's zero, too far to fuse; check the transforms, their "
+                "translations look too large"
+            )
     boxes = {k: _cell_box(cells[k].shape, moves[k]) for k in used}
     low = np.min([b[0] for b in boxes.values()], axis=0)
     high = np.max([b[1] for b in boxes.values()], axis=0)
