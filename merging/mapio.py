@@ -176,12 +176,12 @@ def load_map(source: str | Path) -> OccupancyGrid:
         raise ValueError(
             f"image {image_path} named by {path} is not an image Pillow can read; give a PGM or PNG"
         ) from exc
-    except FileNotFoundError:
-        raise
-    except OSError as exc:  # a truncated or damaged file of a known format
+    except OSError as exc:  # a truncated or damaged file, one not to be read
+        if isinstance(exc, FileNotFoundError | PermissionError | IsADirectoryError):
+            raise
         raise ValueError(
             f"image {image_path} named by {path} cannot be read ({' '.join(str(exc).split())}); "
-            "save the map again"
+            "is it whole? save the map again"
         ) from exc
     data = pixels_to_cells(
         pixels,
@@ -192,7 +192,10 @@ def load_map(source: str | Path) -> OccupancyGrid:
         transparent=see_through,
     )
     origin = (origin_values[0], origin_values[1], origin_values[2])
-    return OccupancyGrid(data[::-1].copy(), resolution=resolution, origin=origin)
+    try:
+        return OccupancyGrid(data[::-1].copy(), resolution=resolution, origin=origin)
+    except ValueError as exc:  # an origin too far away, say
+        raise ValueError(f"{path}: {exc}") from exc
 
 
 def map_image(yaml_path: str | Path) -> Path:

@@ -161,6 +161,7 @@ def test_missing_image_is_file_not_found(tmp_path: Path) -> None:
         ("image: map.png\nresolution: .nan\norigin: [0, 0, 0]\n", r"bad\.yaml: resolution must"),
         ("image: map.png\nresolution: true\norigin: [0, 0, 0]\n", r"resolution .* got True"),
         ("image: map.png\nresolution: 0.05\norigin: [.nan, 0, 0]\n", "origin must be finite"),
+        ("image: map.png\nresolution: 0.05\norigin: [1e12, 0, 0]\n", r"bad\.yaml: origin .* lies"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0.7\n", "negate must be 0"),
         ("image: map.png\nresolution: 0.05\norigin: [0, a, 0]\n", "origin must be numbers"),
         ("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 'no'\n", "negate must"),
