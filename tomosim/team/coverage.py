@@ -36,7 +36,6 @@ from numpy.typing import ArrayLike, NDArray
 from merging.grid import OccupancyGrid
 from tomosim.frames import pose_matrix
 from tomosim.kernels.reveal import first_of_keys, reveal_team
-from tomosim.mapping import MAX_GRID_SIDE_CELLS
 from tomosim.team.sharing import grid_anchor
 from tomosim.worlds.world import World
 
@@ -70,6 +69,13 @@ def _lattice_keys(
     keys = (lattice[:, 1] - low[1]) * width + (lattice[:, 0] - low[0])
     members = np.argsort(keys, kind="stable").astype(np.int64)
     return (int(low[0]), int(low[1])), width, keys[members], members
+
+
+MAX_SPAN_CELLS = 20_000
+"""Most robot-grid cells across a world's diagonal that the coverage count takes: its
+per-robot lookup tables grow with the square of the span (a kilometre at 0.05 m, 20 000
+cells, takes about 3 GB and 20 s to set up); a world past it is most likely a map saved
+at a wrong resolution (a 60 x 80-cell map at 1e6 m a cell failed in numpy)."""
 
 
 class TeamCoverage:
@@ -122,14 +128,14 @@ class TeamCoverage:
             raise ValueError(f"start_poses must have shape (N, 3), got {starts.shape}")
         if not (math.isfinite(resolution) and resolution > 0):
             raise ValueError(f"resolution must be a positive number of metres, got {resolution}")
-        # The lattice of a robot's grid, turned with its start, spans the world's diagonal.
+        # A robot's lattice, turned with its start, spans up to the world's diagonal.
         height, width = (side * world.resolution for side in world.truth.data.shape)
         span = math.hypot(width, height) / resolution
-        if span > MAX_GRID_SIDE_CELLS:
+        if span > MAX_SPAN_CELLS:
             raise ValueError(
                 f"the world is {width:g} m x {height:g} m, {span:.0f} cells across at the "
-                f"robots' {resolution} m a cell, more than a grid holds ({MAX_GRID_SIDE_CELLS} "
-                "a side); check the map's resolution (metres per cell)"
+                f"robots' {resolution} m a cell, more than the coverage count takes "
+                f"({MAX_SPAN_CELLS}); check the map's resolution (metres per cell)"
             )
         self.resolution = float(resolution)
         self.region = world.explorable
