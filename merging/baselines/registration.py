@@ -141,11 +141,15 @@ def _unwrap(shift: float, size: int, low: int, high: int) -> float:
 
 
 def _turn(cells: NDArray[np.int8], theta: float) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
-    """``cells`` turned by ``theta`` about its centre onto a square canvas that holds all of it.
+    """``cells`` turned by ``theta`` about the cell at (or just before) its centre onto a
+    square canvas that holds all of it.
 
     Returns the canvas and the matrix taking the grid's cells to the canvas's.
     """
     rows, cols = cells.shape
+    # The diagonal holds the grid turned about its exact centre; turned about a cell up
+    # to half a cell from it, each corner moves by as much, so a cell more a side, and
+    # a cell more for the canvas's centre being a whole cell too.
     side = int(np.ceil(np.hypot(rows, cols))) + 4
     # Turned about a whole cell onto a whole cell: a quarter turn then moves every cell
     # onto a cell, as the nearest-neighbour warp does, and the matrix says so. About

@@ -12,7 +12,7 @@ from skimage.feature import corner_harris, corner_peaks
 import merging
 from merging.baselines.common import render, verdict
 from merging.baselines.patches import orientations, oriented_patches
-from merging.baselines.registration import rotation_modulo_half_turn
+from merging.baselines.registration import _turn, rotation_modulo_half_turn
 from merging.baselines.spectral import (
     ANGLE_STEP_DEG,
     circular_correlation,
@@ -192,6 +192,19 @@ def test_log_polar_rotation_is_found_modulo_a_half_turn(robot_map: np.ndarray, d
     found = np.rad2deg(rotation_modulo_half_turn(render(robot_map), render(map2)))
     difference = (found - degrees + 90.0) % 180.0 - 90.0
     assert abs(difference) < 0.5
+
+
+@pytest.mark.parametrize("shape", [(5, 8), (6, 9), (7, 7), (1, 12)])
+def test_a_quarter_turn_lays_every_cell_on_a_cell_where_its_matrix_says(shape) -> None:
+    cells = np.arange(np.prod(shape)).reshape(shape).astype(np.int8) % 100
+    cols, rows = np.meshgrid(np.arange(shape[1]), np.arange(shape[0]))
+    points = np.column_stack([cols.ravel(), rows.ravel()]).astype(float)
+    for quarter in range(4):
+        canvas, to_canvas = _turn(cells, quarter * np.pi / 2)
+        landed = apply_transform(to_canvas, points)
+        np.testing.assert_allclose(landed, np.rint(landed), atol=1e-9)
+        spots = np.rint(landed).astype(int)
+        np.testing.assert_array_equal(canvas[spots[:, 1], spots[:, 0]], cells.ravel())
 
 
 @pytest.mark.parametrize("shape", [(100, 140), (101, 140), (120, 160)])
