@@ -134,9 +134,7 @@ class RotationParams:
     peaks: int = 3
 
     def __post_init__(self) -> None:
-        _check_fields(
-            self, positive=("angle_step_deg", "peaks"), fractions=("max_frequency_fraction",)
-        )
+        _check_fields(self, positive=("peaks",), fractions=("max_frequency_fraction",))
         # Two samples per half turn at least; below a hundredth of a degree the spectra
         # grow past memory without a finer answer (the peaks are refined afterwards).
         real_number(self.angle_step_deg, "RotationParams.angle_step_deg", low=0.01, high=90.0)
@@ -200,7 +198,7 @@ class TranslationParams:
     reverse_penalty: float = 1.0
 
     def __post_init__(self) -> None:
-        _check_fields(self, positive=("coarse_cells", "peaks", "wall_blur"))
+        _check_fields(self, positive=("coarse_cells", "peaks"))
         # A blur as wide as the coarse grid smears every wall over the whole map.
         real_number(
             self.wall_blur, "TranslationParams.wall_blur", low=0.0, high=self.coarse_cells,
@@ -733,7 +731,6 @@ class GaussNewtonParams:
                 "downsample_from_sigma",
                 "curvature_sigma",
                 "curvature_step",
-                "curvature_points",
             ),
             fractions=("whole_field_share",),
         )

@@ -52,7 +52,7 @@ def test_settings_change_nested_copies_and_are_listed() -> None:
         ({"confidence.accept": "2"}, "accept"),  # the settings object's own check
         # Each of these once passed its check and failed deep in the search, with
         # words that named no setting, or asked for terabytes.
-        ({"translation.wall_blur": "0"}, "wall_blur must be a positive number"),
+        ({"translation.wall_blur": "0"}, r"wall_blur must be a number of blocks in \(0, 160\]"),
         ({"translation.wall_blur": "1e9"}, r"wall_blur must be a number of blocks in \(0, 160\]"),
         ({"rotation.angle_step_deg": "1e-9"}, r"angle_step_deg must be a number in \[0.01, 90\]"),
         ({"gauss_newton.curvature_points": "1"}, "curvature_points must be a whole number >= 3"),
