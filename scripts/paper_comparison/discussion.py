@@ -39,15 +39,19 @@ def discussion(study: Study) -> list[str]:
     ):
         corner = _median_rms(study, sim, "harris")
         ours = _median_rms(study, sim, "tomographic")
+        finer = corner < ours
+        psi_higher = stats[(sim, "harris")].psi_mean > stats[(sim, "tomographic")].psi_mean
         lines.append(
             "* **Sim.: the feature matchers tie.** Both windows of a pair are cut from the same "
             "raster, and window 2 is a nearest-neighbour resampling of its cells, so every "
             "corner of the overlap reappears in map 2 almost pixel for pixel. That is the best "
             "case for local features: RANSAC's least-squares refit over dozens of exactly "
-            "reproduced corners is even more precise than the tomographic refinement (median "
-            f"{corner:.2f} against {ours:.2f} cells RMS on the successful {sim} pairs), which is "
-            "also why their Ψ is higher. Maps of one place made by different robots do not "
-            "reproduce corners this way."
+            "reproduced corners is "
+            + ("even more precise than" if finer else "nearly as precise as")
+            + f" the tomographic refinement (Harris: median {corner:.2f} against {ours:.2f} "
+            f"cells RMS on the successful {sim} pairs)"
+            + (", which is also why their Ψ is higher" if finer and psi_higher else "")
+            + ". Maps of one place made by different robots do not reproduce corners this way."
         )
     lines.append(
         "* **Ψ punishes sub-cell error.** Walls are one cell thick and Ψ (eq. 31) counts exact "
