@@ -219,6 +219,7 @@ from merging.validators import SettingTypeError, one_of, real_number, whole_numb
 from tomosim.episode import DEFAULT_COVERAGE_TARGET, DEFAULT_ROBOTS, DEFAULT_WORLD_SEED, load_world
 from tomosim.episode.exploration_tracker import ExplorationTracker
 from tomosim.kernels.jit import interrupts_unwrapped
+from tomosim.mapping import MAX_GRID_SIDE_CELLS
 from tomosim.team import RoundQuality, TeamConfig, TeamSession, TrackingParams, robot_name
 from tomosim.worlds import World
 
@@ -311,6 +312,13 @@ class MultiRobotExplorationEnv(ParallelEnv):
             raise ValueError(
                 f"crop_resolution must be a whole multiple of the map's {resolution} m cells, "
                 f"got {crop_resolution}"
+            )
+        if crop_size * pool > MAX_GRID_SIDE_CELLS:
+            raise ValueError(
+                f"crop_size {crop_size} at crop_resolution {crop_resolution} m reads "
+                f"{crop_size * pool} of the maps' {resolution} m cells a side, more than "
+                f"{MAX_GRID_SIDE_CELLS} ({MAX_GRID_SIDE_CELLS * resolution:g} m); ask for a "
+                "smaller crop_size or a finer crop_resolution"
             )
         self.floors = floors
         self.world_size = world_size

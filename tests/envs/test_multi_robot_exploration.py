@@ -177,6 +177,12 @@ def test_bad_arguments_are_rejected() -> None:
         small_env(render_mode="ansi")
     with pytest.raises(ValueError, match="crop_resolution"):
         small_env(crop_resolution=0.07)
+    # Each once failed at reset(), allocating gigabytes or more in a kernel.
+    too_wide = r"crop_size 100000 at crop_resolution 0\.1 m reads 200000 "
+    with pytest.raises(ValueError, match=too_wide):
+        small_env(crop_size=100_000)
+    with pytest.raises(ValueError, match="a smaller crop_size or a finer crop_resolution"):
+        small_env(crop_resolution=1e6)
     with pytest.raises(ValueError, match="robots"):
         small_env(robots=0)
     # Once unpacked as they were: "too many values to unpack" and the like.
