@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, NamedTuple
 
 import numpy as np
 import yaml
@@ -131,6 +131,74 @@ def load_map(source: str | Path) -> OccupancyGrid:
     path = find_map(source)
     meta = _map_meta(path)
     image_path = _image_of(path, meta)
+    header = _header(path, meta)
+    try:
+        with Image.open(image_path) as image:
+            pixels = grey_levels(image)
+            see_through = transparent(image) if header.mode == "scale" else None
+    except UnidentifiedImageError as exc:
+        raise ValueError(
+            f"image {image_path} named by {path} is not an image Pillow can read; give a PGM or PNG"
+        ) from exc
+    except OSError as exc:  # a truncated or damaged file, one not to be read
+        if isinstance(exc, FileNotFoundError | PermissionError | IsADirectoryError):
+            raise
+        raise ValueError(
+            f"image {image_path} named by {path} cannot be read ({' '.join(str(exc).split())}); "
+            "is it whole? save the map again"
+        ) from exc
+    data = pixels_to_cells(
+        pixels,
+        mode=header.mode,
+        negate=header.negate,
+        occupied_thresh=header.occupied_thresh,
+        free_thresh=header.free_thresh,
+        transparent=see_through,
+    )
+    try:
+        return OccupancyGrid(data[::-1].copy(), resolution=header.resolution, origin=header.origin)
+    except ValueError as exc:  # an origin too far away, say
+        raise ValueError(f"{path}: {exc}") from exc
+
+
+def map_image(yaml_path: str | Path) -> Path:
+    """The image file a ``map_server`` YAML names, resolved against the YAML's folder.
+
+    Raises as :func:`load_map` does for a missing or malformed YAML or a
+    missing image.
+    """
+    path = Path(yaml_path)
+    return _image_of(path, _map_meta(path))
+
+
+def map_header(path: Path) -> tuple[Path, float]:
+    """The image file a map's YAML names and its resolution, without reading the pixels;
+    the YAML's other entries are checked as :func:`load_map` checks them.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        As :func:`load_map` for a bad YAML file or a missing image.
+    """
+    meta = _map_meta(path)
+    image = _image_of(path, meta)
+    return image, _header(path, meta).resolution
+
+
+class _Header(NamedTuple):
+    """A map YAML's entries, checked: all but the pixels."""
+
+    resolution: float
+    origin: tuple[float, float, float]
+    negate: bool
+    occupied_thresh: float
+    free_thresh: float
+    mode: str
+
+
+def _header(path: Path, meta: dict[str, Any]) -> _Header:
+    """The entries of a map's YAML ``meta`` (read from ``path``), or a ValueError naming
+    the file and the entry."""
     if not isinstance(meta["origin"], list | tuple):
         raise ValueError(f"{path}: origin must be a list [x, y, yaw], got {meta['origin']!r}")
 
@@ -168,57 +236,8 @@ def load_map(source: str | Path) -> OccupancyGrid:
             f"{path}: thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1, got "
             f"free_thresh {free_thresh} and occupied_thresh {occupied_thresh}"
         )
-    try:
-        with Image.open(image_path) as image:
-            pixels = grey_levels(image)
-            see_through = transparent(image) if mode == "scale" else None
-    except UnidentifiedImageError as exc:
-        raise ValueError(
-            f"image {image_path} named by {path} is not an image Pillow can read; give a PGM or PNG"
-        ) from exc
-    except OSError as exc:  # a truncated or damaged file, one not to be read
-        if isinstance(exc, FileNotFoundError | PermissionError | IsADirectoryError):
-            raise
-        raise ValueError(
-            f"image {image_path} named by {path} cannot be read ({' '.join(str(exc).split())}); "
-            "is it whole? save the map again"
-        ) from exc
-    data = pixels_to_cells(
-        pixels,
-        mode=mode,
-        negate=bool(negate),
-        occupied_thresh=occupied_thresh,
-        free_thresh=free_thresh,
-        transparent=see_through,
-    )
     origin = (origin_values[0], origin_values[1], origin_values[2])
-    try:
-        return OccupancyGrid(data[::-1].copy(), resolution=resolution, origin=origin)
-    except ValueError as exc:  # an origin too far away, say
-        raise ValueError(f"{path}: {exc}") from exc
-
-
-def map_image(yaml_path: str | Path) -> Path:
-    """The image file a ``map_server`` YAML names, resolved against the YAML's folder.
-
-    Raises as :func:`load_map` does for a missing or malformed YAML or a
-    missing image.
-    """
-    path = Path(yaml_path)
-    return _image_of(path, _map_meta(path))
-
-
-def map_header(path: Path) -> tuple[Path, float]:
-    """The image file a map's YAML names and its resolution, without reading the pixels.
-
-    Raises
-    ------
-    FileNotFoundError, ValueError
-        As :func:`load_map` for a bad YAML file or a missing image.
-    """
-    meta = _map_meta(path)
-    image = _image_of(path, meta)
-    return image, _positive_resolution(path, meta["resolution"])
+    return _Header(resolution, origin, bool(negate), occupied_thresh, free_thresh, mode)
 
 
 def _positive_resolution(path: Path, value: object) -> float:

@@ -83,6 +83,13 @@ def test_paths_are_taken_as_they_are(maps_path, tmp_path: Path) -> None:
 def test_the_list_holds_every_map_once_with_its_size(maps_path, tmp_path: Path) -> None:
     first, _ = maps_path
     (first / "notes.yaml").write_text("just: text\n")  # not a map: skipped
+    # Maps load_map refuses are skipped too (they were listed, sized by a bad header).
+    image = (first / "a.yaml").read_text().split("image:")[1].split()[0]
+    for name, entries in (("odd_mode", "mode: odd\n"), ("negative", "")):
+        resolution = "-0.05" if name == "negative" else "0.05"
+        (first / f"{name}.yaml").write_text(
+            f"image: {image}\nresolution: {resolution}\norigin: [0, 0, 0]\n{entries}"
+        )
     entries = catalog.list_maps()
     assert [entry.name for entry in entries] == ["a", "lab/b"]
     a, b = entries
