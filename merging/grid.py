@@ -54,7 +54,8 @@ def validate_cells(cells: object, *, name: str = "map") -> NDArray[np.int8]:
     Raises
     ------
     TypeError
-        If ``cells`` is not an array (or an ``OccupancyGrid``) of numbers.
+        If ``cells`` is not an array (or an ``OccupancyGrid``) of numbers, or is a
+        masked array (its mask would be ignored).
     ValueError
         If it is not 2-D, holds NaN or infinities, fractional values, or
         values outside the coding.
@@ -64,6 +65,11 @@ def validate_cells(cells: object, *, name: str = "map") -> NDArray[np.int8]:
     if not isinstance(cells, np.ndarray):
         raise TypeError(
             f"{name} must be a numpy array or an OccupancyGrid, got {type(cells).__name__}"
+        )
+    if isinstance(cells, np.ma.MaskedArray):
+        raise TypeError(
+            f"{name} is a masked array, whose mask the merger would not see; fill the "
+            f"masked cells with the unknown value first: {name}.filled(-1)"
         )
     if cells.dtype == np.bool_ or not np.issubdtype(cells.dtype, np.number):
         raise TypeError(

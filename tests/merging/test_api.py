@@ -25,6 +25,8 @@ from tests.merging.builders import UNMERGEABLE_CASES, unmergeable_pair
         (np.zeros((0, 5), dtype=np.int8), ValueError, "at least one cell"),
         (np.zeros((4, 4), dtype=bool), TypeError, "from_bool"),
         ([[0, 100]], TypeError, "numpy array"),
+        # Its masked cells were read as their data.
+        (np.ma.masked_equal(np.zeros((4, 4), np.int8), 0), TypeError, r"filled\(-1\)"),
         (np.array([[0.5, 0.0]]), ValueError, "fractional"),
     ],
 )
