@@ -36,8 +36,12 @@ if TYPE_CHECKING:
 
 
 def overlap_rate(robot_coverage: NDArray[np.float64] | tuple[float, ...], team: float) -> float:
-    """``sum(robot_coverage) / team - 1``; 0 while the team knows nothing."""
-    return float(np.sum(robot_coverage)) / team - 1.0 if team > 0 else 0.0
+    """``sum(robot_coverage) / team - 1``; 0 while the team knows nothing.
+
+    Never below 0: the team knows the union of what the robots know, so the sum is at
+    least the team's, and a rounding below it once printed as "-0.00".
+    """
+    return max(float(np.sum(robot_coverage)) / team - 1.0, 0.0) if team > 0 else 0.0
 
 
 @dataclass(frozen=True, slots=True)

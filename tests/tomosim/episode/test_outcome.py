@@ -23,6 +23,8 @@ def test_overlap_rate_is_the_redundant_share_of_what_robots_know() -> None:
     assert overlap_rate((0.4, 0.4), 0.4) == pytest.approx(1.0)  # the same cells twice
     assert overlap_rate((0.3, 0.3, 0.3), 0.3) == pytest.approx(2.0)
     assert overlap_rate((0.0, 0.0), 0.0) == 0.0
+    # Disjoint shares summing a rounding below the team's once gave -3e-15 ("-0.00").
+    assert overlap_rate((0.1, 0.2), 0.3 + 1e-15) == 0.0
 
 
 def test_tracker_sums_each_robots_true_travel() -> None:
