@@ -735,6 +735,12 @@ class GaussNewtonParams:
             fractions=("whole_field_share",),
         )
         real_number(self.damping, "GaussNewtonParams.damping", low=0.0)
+        # Halved 52 times a step is below a float's precision of it: more only costs time.
+        if self.backtracks > 52:
+            raise ValueError(
+                f"GaussNewtonParams.backtracks must be a whole number in [0, 52], "
+                f"got {self.backtracks!r}"
+            )
         # A curvature of three parameters (turn and shift) needs three cells at least.
         whole_number(self.curvature_points, "GaussNewtonParams.curvature_points", minimum=3)
 

@@ -57,6 +57,7 @@ def test_settings_change_nested_copies_and_are_listed() -> None:
         ({"rotation.angle_step_deg": "1e-9"}, r"angle_step_deg must be a number in \[0.01, 90\]"),
         ({"gauss_newton.curvature_points": "1"}, "curvature_points must be a whole number >= 3"),
         ({"gauss_newton.damping": "-1"}, "damping must be a non-negative number"),
+        ({"gauss_newton.backtracks": "1000000"}, r"backtracks must be a whole number in \[0, 52\]"),
         ({"distinct_cells": "-1"}, "distinct_cells must be a positive number"),
     ],
 )
