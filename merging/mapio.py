@@ -222,6 +222,8 @@ def _header(path: Path, meta: dict[str, Any]) -> _Header:
     resolution = _positive_resolution(path, meta["resolution"])
     origin_values = number("origin")
     negate = meta.get("negate", 0)
+    if isinstance(negate, str) and negate.strip() in ("0", "1"):  # quoted in the YAML
+        negate = int(negate)
     if negate not in (0, 1):  # True and False are 1 and 0 too
         raise ValueError(f"{path}: negate must be 0 or 1, got {negate!r}")
     occupied_thresh = number("occupied_thresh", 0.65)

@@ -309,6 +309,13 @@ def test_a_yaml_naming_a_file_that_is_not_an_image_is_named(tmp_path: Path) -> N
         load_map(path)
 
 
+def test_a_quoted_negate_is_read_as_its_number(tmp_path: Path) -> None:
+    Image.fromarray(np.array([[0, 254]], np.uint8)).save(tmp_path / "map.png")
+    path = tmp_path / "map.yaml"
+    path.write_text("image: map.png\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: '1'\n")
+    np.testing.assert_array_equal(load_map(path).data, [[0, 100]])
+
+
 def test_a_truncated_image_is_named_with_the_map(tmp_path: Path) -> None:
     Image.fromarray(np.zeros((60, 80), np.uint8)).save(tmp_path / "map.png")
     whole = (tmp_path / "map.png").read_bytes()
