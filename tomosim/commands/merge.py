@@ -167,7 +167,10 @@ def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -
         raise UsageError(str(error)) from None
     if output.suffix not in MAP_SUFFIXES:
         named = output.name not in ("", ".", "..")  # a folder has no name to give a suffix
-        example = output.with_suffix(".yaml") if named else output / "merged.yaml"
+        if output.name in MAP_SUFFIXES:  # ".yaml" alone: a suffix without a name
+            example = output.parent / "merged.yaml"
+        else:
+            example = output.with_suffix(".yaml") if named else output / "merged.yaml"
         raise UsageError(
             f"output must be a .yaml file (the image is written beside it), got {output}; "
             f"give e.g. {example}"

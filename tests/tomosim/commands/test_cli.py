@@ -71,6 +71,7 @@ def test_no_command_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None
         (["merge", "a.yaml", "b.yaml", "-o", "m.pgm"], "give e.g. m.yaml"),
         (["merge", "a.yaml", "b.yaml", "-o", "merged"], "got merged; give e.g. merged.yaml"),
         (["merge", "a.yaml", "b.yaml", "-o", "."], "got .; give e.g. merged.yaml"),
+        (["merge", "a.yaml", "b.yaml", "-o", ".yaml"], "got .yaml; give e.g. merged.yaml\n"),
         (["merge", "a.yaml", "b.yaml", "-o", "a.yaml"], "also an input"),
         (["merge", "a.yaml", "--demo", "-o", "m.yaml"], "not both"),
         (["merge", "--bogus", "-o", "m.yaml"], "--bogus"),
