@@ -177,7 +177,10 @@ def _merge_observed(
             accepted=False,
             method="tomographic",
             timings=timings,
-            reason="no placement to weigh: the maps are too small to hold a wall direction",
+            reason="no placement to weigh: the maps are too small to hold a wall direction "
+            "in the band of frequencies the rotation search reads (rotation.min_frequency "
+            f"{params.rotation.min_frequency} bins to rotation.max_frequency_fraction "
+            f"{params.rotation.max_frequency_fraction:g} of the highest)",
         )
     result = verdict_on_pool(maps, pool, _hypotheses(pool), timings)
     if result.accepted or not params.fit_ranked:

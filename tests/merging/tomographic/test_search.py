@@ -76,6 +76,16 @@ def test_maps_of_different_places_are_not_accepted() -> None:
     assert not result.accepted
 
 
+def test_a_rotation_band_past_the_maps_is_named_in_the_refusal(building: np.ndarray) -> None:
+    # The reason once blamed the maps alone ("too small to hold a wall direction").
+    params = replace(
+        DEFAULT_PARAMS, rotation=replace(DEFAULT_PARAMS.rotation, min_frequency=1_000_000)
+    )
+    result = merging.estimate_transform(building, building, params=params)
+    assert not result.accepted
+    assert "rotation.min_frequency 1000000" in result.reason
+
+
 def test_reports_stage_timings_and_hypotheses(building: np.ndarray) -> None:
     map2, _ = turned(building, 40.0, (0.0, 0.0))
     result = merging.estimate_transform(building, map2)
