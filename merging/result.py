@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from merging.transforms import matrix_to_pose
+from merging.transforms import checked_transform, matrix_to_pose
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,19 +106,7 @@ def checked_result(result: object, where: str) -> MergeResult:
     given to a linking)."""
     if not isinstance(result, MergeResult):
         raise TypeError(f"{where} must be a MergeResult, got {type(result).__name__}")
-    matrix = np.asarray(result.matrix)
-    if (
-        matrix.shape != (3, 3)
-        or not np.issubdtype(matrix.dtype, np.number)
-        or not np.all(np.isfinite(matrix))
-        or not np.allclose(matrix[2], (0.0, 0.0, 1.0))
-        or abs(np.linalg.det(matrix[:2, :2])) < 1e-9
-    ):
-        raise ValueError(
-            f"{where} has the matrix {np.array2string(matrix, precision=3)}: a MergeResult's "
-            "matrix must be a finite, invertible 3 x 3 transform with last row [0, 0, 1] "
-            "(map 2 cells -> map 1 cells)"
-        )
+    checked_transform(result.matrix, name=f"the matrix of {where}")
     confidence = result.confidence
     if (
         isinstance(confidence, bool)

@@ -13,6 +13,41 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import OccupancyGrid
 
+AFFINE_TOLERANCE = 1e-9
+"""Largest deviation of a matrix's last row from ``[0, 0, 1]``, and smallest
+determinant of its 2 x 2 part, taken as rounding: a larger deviation is a
+projective matrix, which grids cannot be warped by; a smaller determinant folds
+map 2 onto a line."""
+
+
+def checked_transform(
+    matrix: object, *, name: str = "matrix", invertible: bool = True
+) -> NDArray[np.float64]:
+    """``matrix`` as a 3x3 float array if it is a finite 2-D transform (last row
+    ``[0, 0, 1]``) and, with ``invertible``, one that does not fold the plane; else a
+    ValueError saying which of these fails, calling it ``name``."""
+    try:
+        m = np.asarray(matrix, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a 3x3 array of numbers, got {matrix!r}") from None
+    if m.shape != (3, 3):
+        raise ValueError(f"{name} must be a 3x3 transform, got shape {m.shape}")
+    if not np.all(np.isfinite(m)):
+        raise ValueError(
+            f"{name} must be finite, got {np.array2string(m, precision=3)}; "
+            "give a 3x3 transform, map 2 cells -> map 1 cells"
+        )
+    if np.max(np.abs(m[2] - (0.0, 0.0, 1.0))) > AFFINE_TOLERANCE:
+        raise ValueError(
+            f"{name} must be affine, with last row [0, 0, 1], got last row {m[2].tolist()}"
+        )
+    if invertible and abs(np.linalg.det(m[:2, :2])) < AFFINE_TOLERANCE:
+        raise ValueError(
+            f"{name} is singular (determinant {np.linalg.det(m[:2, :2]):.3g}): it folds map 2 "
+            "onto a line; give an invertible transform, map 2 cells -> map 1 cells"
+        )
+    return m
+
 
 def rigid_matrix(dx: float, dy: float, theta: float) -> NDArray[np.float64]:
     """``T(dx, dy, theta)`` of eq. (1); ``theta`` in radians, counter-clockwise."""

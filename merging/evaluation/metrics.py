@@ -13,7 +13,7 @@ from merging.grid import (
     occupied_cells,
     validate_cells,
 )
-from merging.transforms import apply_transform, matrix_to_pose, wrap_angle
+from merging.transforms import apply_transform, checked_transform, matrix_to_pose, wrap_angle
 
 MapLike = ArrayLike | OccupancyGrid
 """A map as the functions here take it: an OccupancyGrid or its cells in the ROS coding."""
@@ -114,7 +114,7 @@ def _counts(map1: MapLike, map2: MapLike, matrix: ArrayLike) -> tuple[int, int, 
     """:func:`_overlap_counts` of two maps given as the public functions take them."""
     cells1 = np.ascontiguousarray(_cells(map1, name="map1"))
     cells2 = np.ascontiguousarray(_cells(map2, name="map2"))
-    forward = as_matrix(matrix)
+    forward = checked_transform(matrix, invertible=False)
     if abs(np.linalg.det(forward[:2, :2])) < 1e-9:
         raise ValueError("matrix is singular (it folds map 2 onto a line); give a rigid transform")
     inverse = np.ascontiguousarray(np.linalg.inv(forward))  # as merging.warp.warp_cells
@@ -178,7 +178,8 @@ def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: MapLike) -> tup
         Absolute rotation difference in degrees, in ``[0, 180]``.
     """
     cells2 = _cells(map2, name="map2")
-    estimate, truth = as_matrix(estimate), as_matrix(truth)
+    estimate = checked_transform(estimate, name="estimate", invertible=False)
+    truth = checked_transform(truth, name="truth", invertible=False)
     points = occupied_cells(cells2)
     if len(points) == 0:
         rows, cols = cells2.shape
@@ -187,21 +188,3 @@ def transform_error(estimate: ArrayLike, truth: ArrayLike, map2: MapLike) -> tup
     rms = float(np.sqrt(np.mean(np.sum(diff**2, axis=1))))
     rotation = abs(float(wrap_angle(matrix_to_pose(estimate)[2] - matrix_to_pose(truth)[2])))
     return rms, float(np.degrees(rotation))
-
-
-def as_matrix(values: ArrayLike) -> NDArray[np.float64]:
-    """Check and return a 3x3 float matrix of a 2-D transform (last row ``[0, 0, 1]``)."""
-    m = np.asarray(values, dtype=float)
-    if m.shape != (3, 3):
-        raise ValueError(f"matrix must be a 3x3 array, got shape {m.shape}")
-    if not np.all(np.isfinite(m)):
-        raise ValueError(
-            f"matrix must be finite, got {np.array2string(m, precision=3)}; "
-            "give a 3x3 transform, map 2 cells -> map 1 cells"
-        )
-    if not np.allclose(m[2], (0.0, 0.0, 1.0)):
-        raise ValueError(
-            f"matrix must be a homogeneous 2-D transform with last row [0, 0, 1], "
-            f"got last row {m[2].tolist()}"
-        )
-    return m

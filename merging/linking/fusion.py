@@ -39,16 +39,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from merging.grid import UNKNOWN, OccupancyGrid, observed_part, validate_cells
 from merging.resample import to_resolution
-from merging.transforms import apply_transform
+from merging.transforms import apply_transform, checked_transform
 from merging.warp import warp_cells
 
 EDGE_TOLERANCE = 1e-6
 """Cells. A cell centre this close outside a transformed map's edge still counts
 as inside, so that rounding in rotation matrices (``cos(pi/2) = 6e-17``) can
 neither drop a row of the canvas nor add an empty one."""
-AFFINE_TOLERANCE = 1e-9
-"""Largest deviation of a matrix's last row from ``[0, 0, 1]`` that is taken as
-rounding; a larger one is a projective matrix, which grids cannot be warped by."""
 MAX_CELL_COORDINATE = 2.0**62
 """Farthest a map may be laid from the common frame's zero, in cells: the fused grid's
 corners are integers of 64 bits."""
@@ -85,18 +82,6 @@ class FusedMap:
 def combine(first: NDArray[np.int8], second: NDArray[np.int8]) -> NDArray[np.int8]:
     """The conflict rule: the cell-wise maximum (see the module docstring)."""
     return np.maximum(first, second)
-
-
-def _check_affine(matrix: ArrayLike, *, name: str = "matrix") -> NDArray[np.float64]:
-    """Return ``matrix`` as a finite, invertible 3x3 affine float matrix, or raise ValueError."""
-    m = np.asarray(matrix, dtype=float)
-    if m.shape != (3, 3) or not np.all(np.isfinite(m)):
-        raise ValueError(f"{name} must be a finite 3x3 array, got shape {m.shape}")
-    if np.max(np.abs(m[2] - (0.0, 0.0, 1.0))) > AFFINE_TOLERANCE:
-        raise ValueError(f"{name} must be affine with last row [0, 0, 1], got {m[2].tolist()}")
-    if abs(np.linalg.det(m[:2, :2])) < AFFINE_TOLERANCE:
-        raise ValueError(f"{name} is singular (determinant {np.linalg.det(m[:2, :2]):.3g})")
-    return m
 
 
 def _translation(dx: float, dy: float) -> NDArray[np.float64]:
@@ -167,7 +152,7 @@ def fuse(
         )
     called += [(f"maps[{k}]", f"matrices[{k}]") for k in range(len(called), len(maps))]
     moves = {
-        k: _check_affine(m, name=called[k][1]) for k, m in enumerate(matrices) if m is not None
+        k: checked_transform(m, name=called[k][1]) for k, m in enumerate(matrices) if m is not None
     }
     if not moves:
         raise ValueError("no map to fuse: every matrix is None")

@@ -113,7 +113,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from merging.api import MIN_OCCUPIED_CELLS, register_method
-from merging.evaluation.metrics import as_matrix
 from merging.evidence.verify import prepare_map
 from merging.grid import OccupancyGrid, observed_part, occupied_mask, validate_cells
 from merging.params import DEFAULT_PARAMS, TomographicParams
@@ -122,7 +121,7 @@ from merging.tomographic.candidates import Candidate, SearchMaps, rank, rms_betw
 from merging.tomographic.correlate import Peak, coarse_factor
 from merging.tomographic.hypotheses import ranked_pool, search_hypotheses
 from merging.tomographic.judging import judged, verdict_on_pool
-from merging.transforms import cells_to_metres, translation_matrix
+from merging.transforms import cells_to_metres, checked_transform, translation_matrix
 from merging.validators import boolean
 
 
@@ -337,12 +336,7 @@ def refine_from(
     """
     cells1 = validate_cells(map1, name="map1")
     cells2 = validate_cells(map2, name="map2")
-    matrix = as_matrix(matrix)
-    if abs(np.linalg.det(matrix[:2, :2])) < 1e-9:
-        raise ValueError(
-            "matrix is singular (it folds map 2 onto a line); give a rigid transform, "
-            "map 2 cells -> map 1 cells"
-        )
+    matrix = checked_transform(matrix)
     if not isinstance(params, TomographicParams):
         raise TypeError(f"params must be a TomographicParams, got {type(params).__name__}")
     held_against_search = boolean(held_against_search, "held_against_search")

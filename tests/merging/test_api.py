@@ -58,8 +58,8 @@ def test_unknown_method_is_named() -> None:
     [
         (None, TypeError, "method 'misbehaving' must be a MergeResult, got NoneType"),
         ({"confidence": float("nan")}, ValueError, "method 'misbehaving' has the confidence nan"),
-        ({"matrix": np.full((3, 3), np.nan)}, ValueError, "has the matrix"),
-        ({"matrix": np.eye(2)}, ValueError, "3 x 3"),
+        ({"matrix": np.full((3, 3), np.nan)}, ValueError, "matrix of the result of .* finite"),
+        ({"matrix": np.eye(2)}, ValueError, "3x3"),
         ({"accepted": "yes"}, TypeError, "accepted='yes'"),
         # Clipped only within rounding: more is the method's error, a bool no number.
         ({"confidence": 5.0}, ValueError, "has the confidence 5.0"),

@@ -9,6 +9,7 @@ from merging.grid import OccupancyGrid
 from merging.transforms import (
     apply_transform,
     cells_to_metres,
+    checked_transform,
     halfway,
     matrix_to_pose,
     rigid_matrix,
@@ -109,3 +110,28 @@ def test_the_helpers_name_what_they_cannot_take() -> None:
         matrix_to_pose(np.eye(2))
     with pytest.raises(TypeError, match="grid2 must be an OccupancyGrid"):
         cells_to_metres(np.eye(3), OccupancyGrid(np.zeros((2, 2), np.int8)), np.zeros((2, 2)))  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("matrix", "invertible", "message"),
+    [
+        (np.eye(2), True, r"3x3 transform, got shape \(2, 2\)"),
+        ("abc", True, "3x3 array of numbers"),
+        (np.full((3, 3), np.inf), True, "must be finite"),
+        (
+            [[1, 0, 0], [0, 1, 0], [1, 1, 1]],
+            True,
+            r"\[0, 0, 1\], got last row \[1\.0, 1\.0, 1\.0\]",
+        ),
+        (np.diag([1.0, 0.0, 1.0]), True, "singular"),
+    ],
+)
+def test_checked_transform_says_which_condition_fails(matrix, invertible, message) -> None:
+    with pytest.raises(ValueError, match=message):
+        checked_transform(matrix, invertible=invertible)
+
+
+def test_checked_transform_takes_a_folding_matrix_only_when_asked() -> None:
+    folding = np.diag([1.0, 0.0, 1.0])
+    np.testing.assert_array_equal(checked_transform(folding, invertible=False), folding)
+    np.testing.assert_array_equal(checked_transform(np.eye(3).tolist()), np.eye(3))

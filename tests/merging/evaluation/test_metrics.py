@@ -7,7 +7,6 @@ import pytest
 
 from merging.evaluation.metrics import (
     acceptance_index,
-    as_matrix,
     match_indices,
     matching_index,
     transform_error,
@@ -156,16 +155,6 @@ def test_transform_error_of_an_empty_map_uses_its_corners() -> None:
     cells = np.zeros((4, 6), dtype=np.int8)
     rms, _ = transform_error(rigid_matrix(0.0, 2.0, 0.0), np.eye(3), cells)
     assert rms == pytest.approx(2.0, abs=EXACT)
-
-
-def test_as_matrix_checks_shape_and_finiteness() -> None:
-    np.testing.assert_array_equal(as_matrix(np.eye(3)), np.eye(3))
-    with pytest.raises(ValueError, match="3x3"):
-        as_matrix(np.eye(2))
-    with pytest.raises(ValueError, match="must be finite"):
-        as_matrix(np.full((3, 3), np.inf))
-    with pytest.raises(ValueError, match=r"\[0, 0, 1\], got last row \[1\.0, 1\.0, 1\.0\]"):
-        as_matrix(np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 1.0]]))
 
 
 def test_metrics_take_occupancy_grids_as_the_other_functions_do(building: np.ndarray) -> None:

@@ -161,9 +161,9 @@ def test_merge_all_validates_its_input() -> None:
 @pytest.mark.parametrize(
     ("key", "matrix", "confidence", "accepted", "error", "message"),
     [
-        ((0, 1), np.zeros((3, 3)), 0.9, True, ValueError, r"pairs\[\(0, 1\)\] has the matrix"),
-        ((0, 1), np.diag([0.0, 0.0, 1.0]), 0.9, True, ValueError, "invertible"),
-        ((0, 1), np.eye(2), 0.9, True, ValueError, "3 x 3"),
+        ((0, 1), np.zeros((3, 3)), 0.9, True, ValueError, r"matrix of pairs\[\(0, 1\)\] must be"),
+        ((0, 1), np.diag([0.0, 0.0, 1.0]), 0.9, True, ValueError, "singular"),
+        ((0, 1), np.eye(2), 0.9, True, ValueError, "3x3"),
         ((0, 1), np.full((3, 3), np.nan), 0.9, True, ValueError, "finite"),
         ((0, 1), np.eye(3), 2.0, True, ValueError, r"confidence 2\.0.*in \[0, 1\]"),
         ((0, 1), np.eye(3), float("nan"), True, ValueError, "confidence nan"),
