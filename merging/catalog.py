@@ -42,6 +42,9 @@ SHARED_NAME = "shared"
 """Name of the shared data folder looked for beside the checkout."""
 MAP_SUFFIXES = (".yaml", ".yml")
 """Suffixes of a map's YAML file."""
+IMAGE_SUFFIXES = (".pgm", ".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+"""Suffixes of a map's image: written as a path (the image given for its YAML file), never
+a map's name."""
 
 
 def repository_root() -> Path:
@@ -100,7 +103,7 @@ def is_map_path(source: str | Path) -> bool:
     text = str(source)
     return (
         isinstance(source, Path)
-        or text.endswith(MAP_SUFFIXES)
+        or text.lower().endswith(MAP_SUFFIXES + IMAGE_SUFFIXES)
         or text.startswith(("/", "~", "."))
         or "\\" in text
     )
@@ -114,9 +117,10 @@ def find_map(source: str | Path) -> Path:
     source : str or Path
         A map name (``"intel"``, ``"halmstad/E5_01"``), looked up in the
         folders of :func:`map_folders`, or a path to a ``map_server`` YAML file.
-        A ``Path``, a string ending in ``.yaml`` or ``.yml``, or
-        one starting with ``/``, ``~`` or ``.`` is a path; an existing file is
-        always taken as it is.
+        A ``Path``, a string ending in ``.yaml``, ``.yml`` or an image's suffix
+        (:data:`IMAGE_SUFFIXES`: the image given for its YAML file, which its
+        reader names), or one starting with ``/``, ``~`` or ``.`` is a path; an
+        existing file is always taken as it is.
 
     Returns
     -------
