@@ -6,16 +6,11 @@ ranked by :func:`rank`. :class:`SearchMaps` holds both prepared maps, map 1's
 smoothed fields and coarse images (made once, reused by every step and by a
 second search of the same map 1, such as the mirror check's) and the
 settings; its :meth:`~SearchMaps.refine` runs one row of the refinement
-schedule (:class:`~merging.params.RefineStage`). A second look at the same two
-maps (step 7 of :mod:`merging.tomographic.search`, ranking by other weights)
-reuses the verifications and refinements the first look made: on the 300
-low-overlap windows it asks again a quarter of the verifications and an eighth
-of the refinements.
+schedule (:class:`~merging.params.RefineStage`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -23,7 +18,7 @@ from numpy.typing import NDArray
 
 from merging.evidence.refine import SmoothedMap, refine_transform
 from merging.evidence.verify import PreparedMap, Verification, verify
-from merging.params import GaussNewtonParams, RefineStage, TomographicParams
+from merging.params import RefineStage, TomographicParams
 from merging.tomographic.angular import AngularSpectrum, angular_spectrum
 from merging.tomographic.correlate import CoarseMap, coarsen
 from merging.transforms import apply_transform
@@ -43,27 +38,14 @@ def rank(check: Verification) -> float:
     return check.score
 
 
-@dataclass(slots=True)
-class _Seen:
-    """What a search of two maps has computed that a second look at them asks again: the
-    verification of a matrix (its landing counts do not depend on the ranking's weights)
-    and the refinement of a matrix by a stage, keyed by the matrix's bytes."""
-
-    verified: dict[tuple[bytes, int], Verification] = field(default_factory=dict)
-    refined: dict[tuple[bytes, RefineStage, GaussNewtonParams], NDArray[np.float64]] = field(
-        default_factory=dict
-    )
-
-
 class SearchMaps:
     """Both prepared maps, map 1's fields and the settings: what every stage needs."""
 
-    __slots__ = ("_seen", "coarse_first", "first", "params", "second", "smoothed", "spectra_first")
+    __slots__ = ("coarse_first", "first", "params", "second", "smoothed", "spectra_first")
 
     smoothed: SmoothedMap
     coarse_first: dict[int, CoarseMap]
     spectra_first: dict[tuple[int, int], AngularSpectrum]
-    _seen: _Seen
 
     def __init__(
         self,
@@ -72,10 +54,8 @@ class SearchMaps:
         params: TomographicParams,
         begun: SearchMaps | None = None,
     ):
-        """``begun``: another search of the same map 1, whose images of it are reused (and,
-        of the same map 2 too, its verifications and refinements)."""
+        """``begun``: another search of the same map 1, whose images of it are reused."""
         self.first, self.second, self.params = first, second, params
-        self._seen = begun._seen if begun is not None and begun.second is second else _Seen()
         if begun is not None:
             if begun.first is not first or _image_settings(begun.params) != _image_settings(params):
                 raise ValueError(
@@ -111,27 +91,8 @@ class SearchMaps:
             self.spectra_first[key] = angular_spectrum(walls, size=size, params=rotation)
         return self.spectra_first[key]
 
-    def verify(self, matrix: NDArray[np.float64], *, stride: int = 1) -> Verification:
-        """:func:`merging.evidence.verify.verify` of ``matrix`` with these settings' weights
-        (on every ``stride``-th wall cell)."""
-        key = (np.ascontiguousarray(matrix, dtype=np.float64).tobytes(), stride)
-        seen = self._seen.verified.get(key)
-        weights = self.params.verify
-        if seen is None:
-            seen = verify(self.first, self.second, matrix, stride=stride, params=weights)
-            self._seen.verified[key] = seen
-        elif (seen.conflict_weight, seen.overlap_preference, seen.space_preference) != (
-            weights.conflict_weight,
-            weights.overlap_preference,
-            weights.space_preference,
-        ):
-            seen = replace(
-                seen,
-                conflict_weight=weights.conflict_weight,
-                overlap_preference=weights.overlap_preference,
-                space_preference=weights.space_preference,
-            )
-        return seen
+    def verify(self, matrix: NDArray[np.float64]) -> Verification:
+        return verify(self.first, self.second, matrix, params=self.params.verify)
 
     def refine(self, candidate: Candidate, stage: RefineStage, *, keep: bool = True) -> Candidate:
         """Refine a candidate; keep the start only when the refined one verifies clearly worse.
@@ -144,16 +105,7 @@ class SearchMaps:
         leads to.
         """
         before, matrix = candidate
-        key = (
-            np.ascontiguousarray(matrix, dtype=np.float64).tobytes(),
-            stage,
-            self.params.gauss_newton,
-        )
-        better = self._seen.refined.get(key)
-        if better is None:
-            better = refined_on(self.smoothed, self.second, matrix, stage, self.params)
-            better.setflags(write=False)  # shared with a second look
-            self._seen.refined[key] = better
+        better = refined_on(self.smoothed, self.second, matrix, stage, self.params)
         after = self.verify(better)
         if not keep or rank(after) >= rank(before) - self.params.keep_refined_margin:
             return after, better

@@ -24,6 +24,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from merging.evidence.verify import verify
 from merging.params import RefineStage, TomographicParams
 from merging.tomographic.angular import angular_spectrum, rotation_correlation, rotation_peaks
 from merging.tomographic.candidates import Candidate, SearchMaps, rank
@@ -87,7 +88,10 @@ def admission_order(maps: SearchMaps, candidates: list[Peak]) -> list[NDArray[np
     """
     params = maps.params
     stride = params.verify.screen_stride
-    scores = [rank(maps.verify(peak.matrix, stride=stride)) for peak in candidates]
+    scores = [
+        rank(verify(maps.first, maps.second, peak.matrix, stride=stride, params=params.verify))
+        for peak in candidates
+    ]
     masses = [peak.mass for peak in candidates]
     by_mass = [int(i) for i in np.argsort(masses)[::-1][: params.correlation_refined]]
     others = [i for i in range(len(candidates)) if i not in by_mass]

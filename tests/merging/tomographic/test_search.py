@@ -10,7 +10,7 @@ import pytest
 import merging
 from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
-from merging.evidence.verify import Verification, prepare_map, verify
+from merging.evidence.verify import Verification, prepare_map
 from merging.params import DEFAULT_PARAMS
 from merging.tomographic import candidates, judging, restarts, search
 from merging.tomographic.correlate import _suppress, coarsen, translation_peaks
@@ -205,26 +205,6 @@ def test_a_placement_judged_after_the_winner_is_refined_as_finely() -> None:
     start = rigid_matrix(1.2, -0.9, np.deg2rad(0.4)) @ truth
     _, finished = candidates.finished(maps, (maps.verify(start), start))
     assert transform_error(finished, truth, map2)[0] < 0.3 < transform_error(start, truth, map2)[0]
-
-
-def test_a_second_look_reuses_the_first_looks_work_with_its_own_weights() -> None:
-    # The second look ranks the same hypotheses by other weights: a verification it
-    # asks again is the first look's landing counts under its weights, and a refinement
-    # asked again is the first's; a search of another map 2 shares neither.
-    grid = synthetic_building(8)
-    map2, truth = turned(grid, 20.0, (5.0, -3.0))
-    first, second = prepare_map(grid), prepare_map(map2)
-    start = rigid_matrix(1.2, -0.9, np.deg2rad(0.4)) @ truth
-    maps = candidates.SearchMaps(first, second, DEFAULT_PARAMS)
-    stage = DEFAULT_PARAMS.stages[1]
-    looked = maps.refine((maps.verify(start), start), stage, keep=False)
-    by_fit = search.fit_ranking(DEFAULT_PARAMS)
-    again = candidates.SearchMaps(first, second, by_fit, begun=maps)
-    assert again.verify(start) == verify(first, second, start, params=by_fit.verify)
-    assert again.verify(start) != maps.verify(start)  # other weights, other score
-    assert again.refine((again.verify(start), start), stage, keep=False)[1] is looked[1]
-    other = candidates.SearchMaps(first, prepare_map(grid), DEFAULT_PARAMS, begun=maps)
-    assert other.verify(start) == verify(first, prepare_map(grid), start)
 
 
 def test_a_small_overlap_judged_second_is_placed_to_the_cell(maps_folder) -> None:
