@@ -80,7 +80,7 @@ def test_paths_are_taken_as_they_are(maps_path, tmp_path: Path) -> None:
     assert catalog.is_map_path("./a") and not catalog.is_map_path("a")
     # A map's image given for its YAML file is a path too, named as one when missing.
     assert catalog.is_map_path("map.png") and catalog.is_map_path("lab/b.PGM")
-    with pytest.raises(FileNotFoundError, match="map file not found: map.png"):
+    with pytest.raises(FileNotFoundError, match=r"map file not found: map\.png"):
         merging.load_map("map.png")
 
 
