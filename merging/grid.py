@@ -211,7 +211,7 @@ class OccupancyGrid:
         prob = np.asarray(probability, dtype=float)
         if prob.ndim != 2:
             raise ValueError(f"probability must be 2-D, got shape {prob.shape}")
-        known = np.isfinite(prob)
+        known = ~np.isnan(prob)  # an infinity is a probability out of range, not unknown
         if np.any(known & ((prob < 0) | (prob > 1))):
             raise ValueError(
                 f"probabilities must lie in [0, 1] (NaN for unknown), "

@@ -67,6 +67,9 @@ def test_from_probability_maps_percent_and_nan_to_unknown() -> None:
     np.testing.assert_array_equal(grid.occupied()[0], [0, 0, 0, 1, 1, 0])
     with pytest.raises(ValueError, match=r"\[0, 1\]"):
         OccupancyGrid.from_probability(np.array([[0.5, 1.2]]))
+    for infinite in (np.inf, -np.inf):  # out of range, not unknown
+        with pytest.raises(ValueError, match=r"\[0, 1\]"):
+            OccupancyGrid.from_probability(np.array([[0.5, infinite]]))
 
 
 def test_cell_to_world_puts_cell_centres_as_ros_does() -> None:
