@@ -142,7 +142,8 @@ class Linking:
         return len(self.group(index)) > 1
 
     def pair(self, i: int, j: int) -> MergeResult:
-        """The pairwise result whose matrix takes grid ``j``'s cells to grid ``i``'s."""
+        """The pairwise result whose matrix takes grid ``j``'s cells to grid ``i``'s (for a
+        pair estimated the other way round, its matrices inverted, the hypotheses' too)."""
         if (i, j) in self.pairs:
             return self.pairs[(i, j)]
         if (j, i) not in self.pairs:
@@ -151,8 +152,9 @@ class Linking:
         metres = forward.matrix_metres
         return replace(
             forward,
-            matrix=np.asarray(np.linalg.inv(forward.matrix), dtype=np.float64),
-            matrix_metres=None if metres is None else np.asarray(np.linalg.inv(metres), np.float64),
+            matrix=_inverse(forward.matrix),
+            matrix_metres=None if metres is None else _inverse(metres),
+            hypotheses=tuple(replace(h, matrix=_inverse(h.matrix)) for h in forward.hypotheses),
         )
 
     def relative(self, i: int, j: int) -> NDArray[np.float64] | None:
@@ -614,3 +616,8 @@ def _unlinked_notes(
             f"confidence {best.confidence:.2f}{why})"
         )
     return lines
+
+
+def _inverse(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The inverse of a transform matrix, as float64."""
+    return np.asarray(np.linalg.inv(matrix), dtype=np.float64)

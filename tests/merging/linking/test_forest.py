@@ -10,6 +10,7 @@ import pytest
 from merging import MergeResult, OccupancyGrid, cells_to_metres, link_maps, merge_all
 from merging.linking.forest import MergeAllResult, fuse_group
 from merging.params import DEFAULT_LINKING, LinkingParams
+from merging.result import Hypothesis
 from merging.transforms import apply_transform, rigid_matrix
 from merging.warp import warp_cells
 from tests.merging.linking.test_fusion import EXACT, random_room_map, translation
@@ -41,8 +42,10 @@ def table_pairs(table: dict[tuple[int, int], tuple]) -> dict[tuple[int, int], Me
     pairs = {}
     for key, (matrix, confidence, accepted) in table.items():
         reason = "" if accepted else "table says no"
+        matrix = np.asarray(matrix, float)
+        hypotheses = (Hypothesis(matrix, confidence),)
         pairs[key] = MergeResult(
-            np.asarray(matrix, float), confidence, accepted, "table", reason=reason
+            matrix, confidence, accepted, "table", reason=reason, hypotheses=hypotheses
         )
     return pairs
 
@@ -72,6 +75,9 @@ def test_merge_all_chains_transforms_and_ignores_a_weak_wrong_pair() -> None:
     for k in range(4):
         np.testing.assert_allclose(result.transforms[k], truth(0, k), atol=EXACT)
     np.testing.assert_allclose(result.pair(2, 0).matrix, np.linalg.inv(wrong), atol=EXACT)
+    # Asked the other way round, the pair's hypotheses turn round with its matrix.
+    (hypothesis,) = result.pair(1, 0).hypotheses
+    np.testing.assert_allclose(hypothesis.matrix, np.linalg.inv(truth(0, 1)), atol=EXACT)
     assert any("pair 0-2" in note and "disagrees" in note for note in result.notes)
     # the fused map is BASE seen from grid 0, wherever a robot saw it
     into_base = POSES[0] @ np.linalg.inv(result.fused.offset)
