@@ -33,8 +33,8 @@ from merging.result import MergeResult
 from merging.validators import boolean, real_number
 
 CROSSING_TOLERANCE = 1e-12
-"""Square metres: cross products smaller than this count as zero (parallel or
-touching lines), so that a sight line grazing a wall's end point is not blocked."""
+"""Square metres: cross products smaller than this count as zero, so that a wall
+parallel to a sight line (along it, or along its line) does not block it."""
 
 
 @dataclass(frozen=True)
@@ -81,8 +81,11 @@ def blocked(starts: ArrayLike, ends: ArrayLike, walls: ArrayLike) -> NDArray[np.
     Returns
     -------
     (M,) bool ndarray
-        True where a wall properly crosses the segment (touching an end point
-        within :data:`CROSSING_TOLERANCE` does not count).
+        True where a wall crosses the segment strictly between its end points:
+        a robot standing on a wall is not cut off by it, but a sight line
+        through a wall's end point is blocked (two walls meeting at a corner let
+        nothing through it); a parallel wall never blocks
+        (:data:`CROSSING_TOLERANCE`).
     """
     p = np.asarray(starts, dtype=float).reshape(-1, 1, 2)
     r = np.asarray(ends, dtype=float).reshape(-1, 1, 2) - p

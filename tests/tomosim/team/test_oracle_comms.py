@@ -201,8 +201,13 @@ def test_a_wall_between_two_robots_blocks_the_line_of_sight() -> None:
         np.array([[2.0, 0.0], [0.5, 0.0], [2.0, 2.0]]),
     )
     np.testing.assert_array_equal(blocked(starts, ends, wall), [True, False, False])
-    # A sight line that only touches the wall's end point is not blocked.
+    # A robot standing at the wall's end point is not cut off by it ...
     assert not blocked([[0.0, 1.0]], [[1.0, 1.0]], wall)[0]
+    # ... but a sight line through a wall's end point is blocked: at a corner where two
+    # walls meet, nothing passes between them.
+    corner = np.array([[[1.0, -1.0], [1.0, 0.0]], [[1.0, 0.0], [2.0, 0.0]]])
+    assert blocked([[0.0, 1.0]], [[2.0, -1.0]], corner)[0]
+    assert blocked([[0.0, 2.0]], [[2.0, 0.0]], wall)[0]  # through its end point (1, 1)
 
 
 def test_robots_reach_each_other_through_teammates_in_range() -> None:
