@@ -214,7 +214,8 @@ def list_maps(folders: tuple[Path, ...] | None = None) -> list[MapEntry]:
 
 def _maps_in(folder: Path) -> Iterator[MapEntry]:
     """The readable maps under ``folder``."""
-    from merging.mapio import map_header  # mapio reads the YAML; it imports nothing of ours
+    # Imported here: mapio imports this module (to find a map by its name).
+    from merging.mapio import map_header
 
     if not folder.is_dir():
         return

@@ -333,8 +333,9 @@ class ConfidenceParams:
         mirror factor to pass one half; evidence that looks the same in a
         mirror cannot tell a place from its mirror twin in a mirror-symmetric
         building (:mod:`merging.evidence.mirror`). The mirrored placement competes
-        like the best different one, so it is held to the same margin as
-        ``distinct_margin`` (and width), not to a value of its own. Looked at
+        like the best different one, so its margin is set to ``distinct_margin``'s
+        value and shares its width (``distinct_width``); it is a setting of its own
+        so that either can be changed alone. Looked at
         while choosing the counting (window pairs of four maps, seeds 7 and 5
         of the section 4.1 and low-overlap protocols): of 156 right
         placements a way vouched for, the mirror image explained a median 23 %
@@ -693,9 +694,11 @@ class GaussNewtonParams:
         Cells beyond where map 2 lands that a local field covers: room for
         the last steps of a refinement that starts within a cell or so.
     downsample_from_sigma : float
-        Fields at least this wide (cells) are computed on a grid of half
-        resolution: a blur of two cells has nothing finer to keep, and it
-        costs a quarter.
+        Fields at least this wide (cells) are computed on a coarser grid, of
+        the largest power of two not above the width (at least 2) cells a
+        pixel (:func:`merging.evidence.refine.field_scale`): a blur of two
+        cells has nothing finer to keep, and a field of 8 cells costs a
+        sixty-fourth.
     curvature_sigma : float
         Field width (cells) on which the constraint strength measures
         curvature; ``ConfidenceParams.strength_scale`` was set on this width.

@@ -114,9 +114,7 @@ def _counts(map1: MapLike, map2: MapLike, matrix: ArrayLike) -> tuple[int, int, 
     """:func:`_overlap_counts` of two maps given as the public functions take them."""
     cells1 = np.ascontiguousarray(_cells(map1, name="map1"))
     cells2 = np.ascontiguousarray(_cells(map2, name="map2"))
-    forward = checked_transform(matrix, invertible=False)
-    if abs(np.linalg.det(forward[:2, :2])) < 1e-9:
-        raise ValueError("matrix is singular (it folds map 2 onto a line); give a rigid transform")
+    forward = checked_transform(matrix)  # counted through its inverse: not folding
     inverse = np.ascontiguousarray(np.linalg.inv(forward))  # as merging.warp.warp_cells
     rows, cols = _reach(cells2, forward, cells1.shape)
     counts = _overlap_counts(cells1, cells2, inverse, rows, cols)

@@ -40,7 +40,7 @@ def tolerant_fit(
 ) -> tuple[float, float]:
     """``(agreement, quality)`` of ``matrix`` with walls counted as met within ``tolerance`` cells.
 
-    As :func:`verify`, but a carried wall cell agrees within ``tolerance``
+    As :func:`~merging.evidence.verify.verify`, but a carried wall cell agrees within ``tolerance``
     cells (chessboard) of a wall, and conflicts on free space more than
     ``tolerance + conflict_clearance`` cells from any wall: the fit of maps
     that bend against each other by up to ``tolerance`` cells.

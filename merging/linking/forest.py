@@ -99,7 +99,7 @@ class Linking:
         One line each: dropped pairs and why; grids linked to nothing and why.
     used : tuple of (int, int)
         The pairs that place the grids: the forest's, and in a group placed
-        by all of its pairs (module docstring, step 4) every pair not dropped.
+        by all of its pairs (module docstring, step 5) every pair not dropped.
     across : dict
         ``(i, j) -> share`` for each pair judged on the maps across the join
         it made or would have made (:mod:`merging.linking.across`): the
@@ -501,7 +501,7 @@ def _adjust_bent_groups(
     pairs: Mapping[Pair, MergeResult],
     points: Sequence[NDArray[np.float64]],
 ) -> tuple[tuple[NDArray[np.float64], ...], set[int]]:
-    """Step 4's second half: each group with a bending pair and a cycle, placed by all
+    """Step 5's second half: each group with a bending pair and a cycle, placed by all
     of ``pairs`` in it (:func:`merging.linking.posegraph.adjust_poses`; pairs that contradict
     the tree are left out beforehand); the others as the tree has them.
 

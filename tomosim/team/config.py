@@ -44,11 +44,13 @@ class TrackingParams:
         second opinion, should the track have locked onto a wrong fit.
     search_growth : float
         Fraction of new occupied cells (in either map, since the pair's last
-        search) that makes an untracked pair worth searching again: a pair
-        refused on the same walls would be refused again.
+        search) that makes an untracked pair worth searching again, if they
+        are also at least ``search_min_new_walls``: a pair refused on the
+        same walls would be refused again.
     search_min_new_walls : int
-        New occupied cells that make an untracked pair worth searching again
-        whatever the fraction (a small map's first walls).
+        New occupied cells an untracked pair needs at least, whatever the
+        fraction: on a small map a few new cells are a large fraction of its
+        walls but little new evidence.
     new_track_quality : float
         Plain fit (``evidence["quality"]``: agreement minus the weighed
         conflict, with no tolerance for bent maps) a search's placement must

@@ -19,7 +19,8 @@ A merge round
    at lower confidences. An estimate whose evidence says it was held only at
    a kept link's lower threshold (:data:`HELD_ONLY`) keeps a pair's run of
    rounds but does not lengthen it: a placement refined from itself on maps
-   that barely grew repeats its own evidence, and confirms nothing;
+   that barely grew repeats its own evidence, and confirms nothing (with no
+   run to keep, it starts one, as any accepted estimate does);
 3. links the maps through the confirmed pairs (:func:`merging.link_maps`, with
    the team's ``linking`` settings): a consistent spanning forest, each
    robot's frame placed in its group's root robot's frame;
@@ -305,10 +306,13 @@ class TeamMerger:
         accepted rounds (0 when not accepted). Call once per pair and round.
 
         An estimate held only at a kept link's threshold (:data:`HELD_ONLY`),
-        consistent with the run, leaves the run as it was; one that is not
-        consistent starts a new run of one. A confident estimate (:meth:`confident`)
-        counts as a whole run of ``confirmations`` rounds, so a link it makes is kept
-        by the rounds that follow as a link confirmed round by round is.
+        consistent with the run, leaves the run as it was; with no run (after a
+        round that refused the pair or could not reach it) or not consistent
+        with it, it starts a new run of one, as any accepted estimate does: it
+        never lengthens a run, but counts as the first round of one. A confident
+        estimate (:meth:`confident`) counts as a whole run of ``confirmations``
+        rounds, so a link it makes is kept by the rounds that follow as a link
+        confirmed round by round is.
         """
         metres = result.matrix_metres
         if not result.accepted or metres is None or not np.all(np.isfinite(metres)):

@@ -127,7 +127,7 @@ class PairQuality:
         Eq. (31) of the paper: occupied cells shared after the estimated
         transform over the occupied cells of the overlap (0 when none); ``nan``
         for an estimate the merger did not accept (never used, and scoring it
-        would cost a warp of both maps per pair and round).
+        would cost a pass over the overlap per pair and round).
     estimate, truth : (float, float, float)
         Pose ``(x, y, yaw)`` of ``second``'s map frame in ``first``'s, metres
         and radians, as estimated and as true.
@@ -203,7 +203,8 @@ def pair_quality(
     metres = result.matrix_metres
     estimate = np.full((3, 3), np.nan) if metres is None else np.asarray(metres, dtype=np.float64)
     rotation, translation = frame_errors(estimate, truth)
-    # The matching index warps both maps: worth it for estimates that may be used only.
+    # The matching index costs a pass over the overlap: worth it for estimates that may
+    # be used only.
     scored = result.accepted and bool(np.all(np.isfinite(result.matrix)))
     overlap = matching_index(grids[0].data, grids[1].data, result.matrix) if scored else np.nan
     pose = matrix_to_pose(estimate) if np.all(np.isfinite(estimate)) else (NO_ESTIMATE,) * 3

@@ -49,7 +49,7 @@ from tomosim.worlds.world import World
 
 
 class TeamSession:
-    """Robots exploring one world as a team (steps 1-4 of the module docstring).
+    """Robots exploring one world as a team (steps 1-5 of the module docstring).
 
     Parameters
     ----------

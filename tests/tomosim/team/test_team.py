@@ -113,6 +113,9 @@ def test_an_estimate_held_only_at_the_keeping_threshold_confirms_nothing() -> No
     assert merger.confirm(pair, held) == 2  # a confirmed link stays confirmed
     jumped = replace(held, matrix_metres=pose_matrix((4.0, 2.0, 0.5)))
     assert merger.confirm(pair, jumped) == 1  # a different placement starts a new run
+    # With no run to keep (a round refused the pair), it starts one, as any accepted one.
+    assert merger.confirm(pair, replace(held, accepted=False)) == 0
+    assert merger.confirm(pair, held) == 1
 
 
 def test_only_a_confident_estimate_of_its_own_skips_the_second_round() -> None:
