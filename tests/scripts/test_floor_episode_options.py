@@ -11,6 +11,9 @@ SCRIPTS = ("exploration_confidences", "exploration_precision")
 REFUSED = [
     (["--robots", "1"], "at least 2 robots"),
     (["--steps", "0"], "at least 1"),
+    (["--policy", "bogus"], "choose one of: nearest, utility, assignment"),
+    (["--worlds", "0", "-3"], "--worlds -3: seeds are whole numbers >= 0"),
+    (["--seeds", "0", "-1"], "--seeds -1: seeds are whole numbers >= 0"),
     (["--team", "merger.confidence.acept=0.7"], "did you mean merger.confidence.accept"),
     (["--team", "merger.confidence.accept"], "--team takes NAME=VALUE"),
     (["--team", "confirm_at_once_confidence=1.5"], "confirm_at_once_confidence"),

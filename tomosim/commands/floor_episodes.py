@@ -14,9 +14,11 @@ import argparse
 from collections.abc import Sequence
 
 from merging.settings import parse_assignments
+from merging.validators import one_of
 from tomosim.commands import UsageError
 from tomosim.commands.team_options import check_methods_use
 from tomosim.episode import EpisodeConfig
+from tomosim.exploration.choosers import chooser_names
 from tomosim.team import TeamConfig
 from tomosim.team.overrides import with_settings
 
@@ -69,6 +71,14 @@ def check_floor_episode_arguments(
         )
     except UsageError as error:
         parser.error(str(error))
+    try:
+        one_of(args.policy, chooser_names(), what="exploration policy")
+    except ValueError as error:
+        parser.error(f"--policy: {error}")
+    for option, values in (("--worlds", args.worlds), ("--seeds", args.seeds)):
+        negative = [value for value in values if value < 0]
+        if negative:
+            parser.error(f"{option} {negative[0]}: seeds are whole numbers >= 0")
     if args.robots < 2:
         parser.error(f"--robots {args.robots}: a pair needs at least 2 robots")
     if args.steps < 1:
