@@ -85,6 +85,12 @@ class SweepPlan:
             if len(values) == 0:
                 raise ValueError(f"a sweep needs at least one value of {name}")
         object.__setattr__(self, "worlds", tuple(world_name(world) for world in self.worlds))
+        for k, world in enumerate(self.worlds):
+            if world.startswith("-") and world[1:].isdigit():
+                raise ValueError(
+                    f"worlds[{k}] must be a floor plan's seed (a whole number >= 0) or a map, "
+                    f"got {world}"
+                )
         for name, least in (("robots", 1), ("seeds", 0)):
             for k, value in enumerate(getattr(self, name)):
                 whole_number(value, f"{name}[{k}]", minimum=least)

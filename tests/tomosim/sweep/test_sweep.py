@@ -83,6 +83,7 @@ def test_every_episode_has_the_plan_s_team_with_its_own_method() -> None:
         ("worlds", ("0", 0), "twice"),  # one key for two episodes
         ("robots", (0,), r"robots\[0\] must be a whole number >= 1"),
         ("seeds", (-1,), r"seeds\[0\] must be a whole number >= 0"),
+        ("worlds", ("0", "-3"), r"worlds\[1\] must be a floor plan's seed .* got -3"),
         ("steps", 0, "steps must be a whole number >= 1"),
         ("coverage_target", 2.0, r"coverage_target must be a number in \(0, 1\]"),
         ("world_size", (-1.0, 5.0), r"world_size must be \(width, height\), two positive"),
