@@ -28,11 +28,6 @@ WINDOW_SHIFTS_LOW = np.array([-TWO_PI, 0.0, TWO_PI]) - ANGLE_TOLERANCE
 WINDOW_SHIFTS_HIGH = np.array([-TWO_PI, 0.0, TWO_PI]) + ANGLE_TOLERANCE
 
 
-def beam_directions(angles: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``(B, 2)`` unit vectors of beams at ``(B,)`` angles."""
-    return np.column_stack([np.cos(angles), np.sin(angles)])
-
-
 def segment_bounds(segments: NDArray[np.float64]) -> NDArray[np.float64]:
     """``(4, S)`` array of the segments' bounding boxes: rows ``xmin, ymin, xmax, ymax``."""
     low = segments.min(axis=1)

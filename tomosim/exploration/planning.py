@@ -48,8 +48,9 @@ class PlannerConfig:
     wall_penalty_distance : float
         Cells closer than this to a wall cost more.
     wall_penalty : float
-        Extra cost per cell at the inflation boundary, falling linearly to
-        zero at ``wall_penalty_distance``.
+        Extra cost per cell at a wall (no clearance), falling linearly with the
+        clearance to zero at ``wall_penalty_distance``: the first cell a path may
+        take, at ``robot_radius + inflation_margin``, pays that share of it.
     free_below : int
         Map values (percent) below which a known cell counts as free for
         planning. 50, "more likely free than not", lets a robot plan on what a
