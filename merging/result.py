@@ -100,13 +100,20 @@ class MergeResult:
 
 
 def checked_result(result: object, where: str) -> MergeResult:
-    """``result`` if it is a :class:`MergeResult` whose matrix is a finite, invertible,
-    homogeneous 3 x 3 transform, whose confidence is a number in ``[0, 1]`` and whose
-    ``accepted`` is a bool; else raise naming ``where`` (what gave it: a method, a pair
-    given to a linking)."""
+    """``result`` if it is a :class:`MergeResult` whose matrix, and each of its
+    hypotheses' (a pair is read either way round), is a finite, invertible, homogeneous
+    3 x 3 transform, whose confidence is a number in ``[0, 1]`` and whose ``accepted`` is
+    a bool; else raise naming ``where`` (what gave it: a method, a pair given to a
+    linking)."""
     if not isinstance(result, MergeResult):
         raise TypeError(f"{where} must be a MergeResult, got {type(result).__name__}")
     checked_transform(result.matrix, name=f"the matrix of {where}")
+    for k, hypothesis in enumerate(result.hypotheses):
+        if not isinstance(hypothesis, Hypothesis):
+            raise TypeError(
+                f"hypotheses[{k}] of {where} must be a Hypothesis, got {type(hypothesis).__name__}"
+            )
+        checked_transform(hypothesis.matrix, name=f"the matrix of hypotheses[{k}] of {where}")
     confidence = result.confidence
     if (
         isinstance(confidence, bool)

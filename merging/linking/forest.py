@@ -143,7 +143,8 @@ class Linking:
 
     def pair(self, i: int, j: int) -> MergeResult:
         """The pairwise result whose matrix takes grid ``j``'s cells to grid ``i``'s (for a
-        pair estimated the other way round, its matrices inverted, the hypotheses' too)."""
+        pair estimated the other way round, its matrices inverted, the hypotheses' too;
+        their verification figures and the evidence still count as it was estimated)."""
         if (i, j) in self.pairs:
             return self.pairs[(i, j)]
         if (j, i) not in self.pairs:

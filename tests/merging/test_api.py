@@ -61,6 +61,13 @@ def test_unknown_method_is_named() -> None:
         ({"matrix": np.full((3, 3), np.nan)}, ValueError, "matrix of the result of .* finite"),
         ({"matrix": np.eye(2)}, ValueError, "3x3"),
         ({"accepted": "yes"}, TypeError, "accepted='yes'"),
+        # A pair is read either way round: its hypotheses are inverted with its matrix.
+        (
+            {"hypotheses": (merging.result.Hypothesis(np.diag([1.0, 0.0, 1.0]), 1.0),)},
+            ValueError,
+            r"matrix of hypotheses\[0\] of .* singular",
+        ),
+        ({"hypotheses": (np.eye(3),)}, TypeError, r"hypotheses\[0\] .* must be a Hypothesis"),
         # Clipped only within rounding: more is the method's error, a bool no number.
         ({"confidence": 5.0}, ValueError, "has the confidence 5.0"),
         ({"confidence": True}, ValueError, "has the confidence True"),
