@@ -81,7 +81,7 @@ def world_spec(text: str, *, option: str) -> int | str | Path:
     if stripped.isdigit():
         return int(stripped)
     suffix = Path(stripped).suffix
-    if suffix in MAP_FILE_SUFFIXES:
+    if suffix.lower() in MAP_FILE_SUFFIXES:  # E5.YAML is read as load_map reads it
         return Path(stripped)
     if suffix or not stripped:
         raise UsageError(

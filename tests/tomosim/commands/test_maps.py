@@ -10,6 +10,7 @@ import pytest
 from merging import catalog
 from tests.merging.test_catalog import write
 from tests.tomosim.commands.cli_support import assert_one_line_error, run
+from tomosim.commands import UsageError, world_spec
 from tomosim.episode import load_world
 from tomosim.sweep.plan import world_name
 
@@ -76,3 +77,10 @@ def test_a_world_and_a_sweep_name_a_map_by_its_name(maps_folder_set) -> None:
     assert world_name("office") == "office" and world_name("site/hall") == "site/hall"
     assert world_name("7") == "7"
     assert Path(world_name("office.yaml")).is_absolute()  # a file keeps its whole path
+
+
+def test_a_world_option_reads_a_yaml_suffix_in_any_case() -> None:
+    # As load_map does (merging.catalog.is_map_path): E5.YAML is a map's file, not refused.
+    assert world_spec("maps/E5.YAML", option="--world") == Path("maps/E5.YAML")
+    with pytest.raises(UsageError, match=r"map_server \.yaml file"):
+        world_spec("map.png", option="--world")
