@@ -697,8 +697,8 @@ class GaussNewtonParams:
         Fields at least this wide (cells) are computed on a coarser grid, of
         the largest power of two not above the width (at least 2) cells a
         pixel (:func:`merging.evidence.refine.field_scale`): a blur of two
-        cells has nothing finer to keep, and a field of 8 cells costs a
-        sixty-fourth.
+        cells has nothing finer to keep, and a field of 8 cells has a
+        sixty-fourth of the pixels.
     curvature_sigma : float
         Field width (cells) on which the constraint strength measures
         curvature; ``ConfidenceParams.strength_scale`` was set on this width.

@@ -50,7 +50,8 @@ class PlannerConfig:
     wall_penalty : float
         Extra cost per cell at a wall (no clearance), falling linearly with the
         clearance to zero at ``wall_penalty_distance``: the first cell a path may
-        take, at ``robot_radius + inflation_margin``, pays that share of it.
+        take pays ``1 - (robot_radius + inflation_margin) / wall_penalty_distance``
+        of it (0.625 with the defaults).
     free_below : int
         Map values (percent) below which a known cell counts as free for
         planning. 50, "more likely free than not", lets a robot plan on what a
