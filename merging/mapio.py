@@ -384,7 +384,7 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
             f"yaml_path {str(path)!r} is where the {image_format} image would go (the image "
             "takes the YAML's name with its own suffix); give the YAML's path, ending in .yaml"
         )
-    if path.suffix not in (".yaml", ".yml"):
+    if path.suffix.lower() not in (".yaml", ".yml"):  # in any case, as find_map reads it
         raise ValueError(
             f"yaml_path {str(path)!r} must end in .yaml (or .yml): map_server and load_map "
             "read the map from its YAML file"

@@ -282,6 +282,10 @@ def test_save_refuses_a_yaml_path_without_the_yaml_suffix(tmp_path: Path) -> Non
     with pytest.raises(ValueError, match=r"must end in \.yaml"):
         save_map(OccupancyGrid(np.zeros((2, 2), np.int8)), tmp_path / "m.txt")
     assert list(tmp_path.iterdir()) == []
+    # In any case, as a map is found and read (merging.catalog.is_map_path).
+    grid = OccupancyGrid(np.zeros((2, 2), np.int8))
+    save_map(grid, tmp_path / "m.YAML")
+    np.testing.assert_array_equal(load_map(tmp_path / "m.YAML").data, grid.data)
 
 
 def test_a_sixteen_bit_image_reads_as_its_eight_bit_twin(tmp_path: Path) -> None:

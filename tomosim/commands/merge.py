@@ -165,9 +165,9 @@ def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -
         check_method(args.method)
     except ValueError as error:
         raise UsageError(str(error)) from None
-    if output.suffix not in MAP_SUFFIXES:
+    if output.suffix.lower() not in MAP_SUFFIXES:  # M.YAML is written as load_map reads it
         named = output.name not in ("", ".", "..")  # a folder has no name to give a suffix
-        if output.name in MAP_SUFFIXES:  # ".yaml" alone: a suffix without a name
+        if output.name.lower() in MAP_SUFFIXES:  # ".yaml" alone: a suffix without a name
             example = output.parent / "merged.yaml"
         else:
             example = output.with_suffix(".yaml") if named else output / "merged.yaml"

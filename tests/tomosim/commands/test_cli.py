@@ -179,7 +179,7 @@ def test_merge_two_saved_maps_end_to_end(
     demo_files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     first, second, truth = demo_files
-    output = tmp_path / "merged.yaml"
+    output = tmp_path / "merged.YAML"  # a suffix in any case, as maps are read
     status, out, err = run(["merge", str(first), str(second), "-o", str(output), "--json"], capsys)
     assert status == 0, err
     report = json.loads(out)
