@@ -64,6 +64,12 @@ class FloorplanConfig:
             "robot_clearance",
         ):
             real_number(getattr(self, name), name, low=0.0, low_open=True, unit="metres")
+        if self.resolution > self.wall_thickness:
+            raise ValueError(
+                f"resolution ({self.resolution} m) must be at most the wall thickness "
+                f"({self.wall_thickness} m): a wall thinner than a cell paints no cell, and "
+                "rooms run into each other in the grid"
+            )
         if self.margin < self.wall_thickness:
             raise ValueError(
                 f"margin ({self.margin} m) must be at least the wall thickness "

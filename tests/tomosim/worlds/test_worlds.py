@@ -151,6 +151,9 @@ def test_floorplan_config_refuses_sizes_no_grid_holds() -> None:
         FloorplanConfig(room_width=(3.0, float("nan")))
     with pytest.raises(ValueError, match="door_width must be a range"):
         FloorplanConfig(door_width=(1.0,))  # type: ignore[arg-type]
+    # Walls thinner than a cell painted no cell: rooms ran into the corridor.
+    with pytest.raises(ValueError, match=r"resolution \(0\.2 m\) must be at most the wall"):
+        FloorplanConfig(resolution=0.2)
     # Corridors narrower than a robot cut the floor apart (0.3 m left 36 % reachable).
     with pytest.raises(ValueError, match="corridors"):
         FloorplanConfig(corridor_width=(0.3, 0.3))
