@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from tomosim.episode import DEFAULT_COVERAGE_TARGET, EpisodeMetrics
-from tomosim.recording import RecordedRun
+from tomosim.recording import RecordedRun, Series
 from tomosim.recording.paths import (
     OVERLAP_RATE,
     PATH_LENGTH_TOTAL,
@@ -176,33 +176,49 @@ def render_summary(metrics: EpisodeMetrics) -> str:
 def recorded_figures(run: RecordedRun) -> dict[str, Any]:
     """The exploration figures of a recording (the time series under ``team/``): the step and
     simulated seconds at which the coverage target was reached, and at the last step each
-    robot's coverage and path length, the team's path length and overlap rate."""
+    robot's coverage and path length, the team's path length and overlap rate.
+
+    A file cut short ends its series at different steps (a robot's coverage is written
+    before its path length): every figure is read at ``at_step``, the last step all of
+    them reached, so that they describe one moment; one missing is None.
+    """
     settings = run.settings
     coverage = run.coverage
     target = float(settings.get("coverage_target", DEFAULT_TARGET))
     dt = float(settings.get("dt", DEFAULT_DT))
     reached = np.flatnonzero(coverage.values >= target)
     step = int(coverage.steps[reached[0]]) if len(reached) else None
-    robots = []
+    per_robot = []
     k = 0
     while robot_coverage_path(k) in run.series:
-        robots.append(
-            {
-                "coverage": _finite(run.series[robot_coverage_path(k)].last()),
-                "path_length_m": _finite(run.series[path_length_path(k)].last()),
-            }
-        )
+        per_robot.append((run.series[robot_coverage_path(k)], run.series.get(path_length_path(k))))
         k += 1
     total = run.series.get(PATH_LENGTH_TOTAL)
     overlap = run.series.get(OVERLAP_RATE)
+    read = [total, overlap, *(series for pair in per_robot for series in pair)]
+    ends = [int(series.steps[-1]) for series in read if series is not None and len(series.steps)]
+    moment = min(ends) if ends else None
     return {
         "coverage_target": target,
         "steps_to_target": step,
         "seconds_to_target": None if step is None else round(step * dt, 6),
-        "path_length_m": None if total is None else _finite(total.last()),
-        "overlap_rate": None if overlap is None else _finite(overlap.last()),
-        "robots": robots,
+        "at_step": moment,
+        "path_length_m": _value_at(total, moment),
+        "overlap_rate": _value_at(overlap, moment),
+        "robots": [
+            {"coverage": _value_at(own, moment), "path_length_m": _value_at(length, moment)}
+            for own, length in per_robot
+        ],
     }
+
+
+def _value_at(series: Series | None, step: int | None) -> float | None:
+    """``series``'s value at ``step`` or the last before it (None when there is none, or
+    it is not finite)."""
+    if series is None or step is None:
+        return None
+    index = int(np.searchsorted(series.steps, step, side="right")) - 1
+    return _finite(float(series.values[index])) if index >= 0 else None
 
 
 def render_figures(figures: dict[str, Any]) -> list[str]:
@@ -213,13 +229,18 @@ def render_figures(figures: dict[str, Any]) -> list[str]:
         "not reached" if step is None else f"step {step}, {figures['seconds_to_target']:.1f} s"
     )
     lines = [f"{'time to ' + f'{target:.0%}':<16}{reached}"]
+    robots = figures["robots"]
     if figures["path_length_m"] is not None:
-        each = ", ".join(f"r{k} {r['path_length_m']:.1f}" for k, r in enumerate(figures["robots"]))
+        each = ", ".join(f"r{k} {_shown(r['path_length_m'], 1)}" for k, r in enumerate(robots))
         lines.append(f"{'path length':<16}{figures['path_length_m']:.1f} m ({each})")
     if figures["overlap_rate"] is not None:
-        own = ", ".join(f"r{k} {r['coverage']:.2f}" for k, r in enumerate(figures["robots"]))
+        own = ", ".join(f"r{k} {_shown(r['coverage'], 2)}" for k, r in enumerate(robots))
         lines.append(f"{'own coverage':<16}{own}; overlap rate {figures['overlap_rate']:.2f}")
     return lines
+
+
+def _shown(value: float | None, digits: int) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
 
 
 def _finite(value: float) -> float | None:

@@ -158,6 +158,11 @@ def timeline(run: RecordedRun) -> list[dict[str, Any]]:
 
 def describe_status(run: RecordedRun) -> str:
     """How the run ended, in words, from ``run/status`` and the file's state."""
+    if not run.status and run.notes:
+        return (
+            f"did not finish: the recording was cut short at step {run.last_step}, before "
+            "it said how the run ended"
+        )
     if not run.status:
         return (
             f"unknown end: the recording ends at step {run.last_step} and does not say how "

@@ -21,7 +21,16 @@ from tests.tomosim.commands.cli_support import assert_one_line_error, run
 from tests.tomosim.recording.test_recording import free_port, verify, write_foreign
 from tomosim.cli import main
 from tomosim.commands import progress, review
-from tomosim.recording import read_recording
+from tomosim.commands.explore_report import recorded_figures, render_figures
+from tomosim.commands.review import describe_status
+from tomosim.recording import RecordedRun, Series, read_recording
+from tomosim.recording.paths import (
+    COVERAGE,
+    OVERLAP_RATE,
+    PATH_LENGTH_TOTAL,
+    path_length_path,
+    robot_coverage_path,
+)
 
 SHORT_RUN = ["--robots", "2", "--steps", "60", "--merge-interval", "20", "--seed", "3"]
 """A run short enough for the suite: two robots on the default floor, merge rounds every 20
@@ -633,3 +642,35 @@ def test_the_command_line_builds_the_episode_s_team() -> None:
     )
     plain = build_config(build_parser().parse_args(["explore", "--no-merge"]))
     assert plain.team == TeamConfig(merge=False)  # every other setting the team's default
+
+
+def test_a_recording_cut_between_its_series_is_summarised_at_one_step() -> None:
+    # rerun writes a robot's coverage before its path length: a file cut between them
+    # failed with a KeyError, and the figures mixed the series' last steps.
+    def series(last: int, scale: float) -> Series:
+        steps = np.arange(last + 1)
+        return Series(steps, steps * scale)
+
+    run = RecordedRun(
+        Path("cut.rrd"),
+        {"coverage_target": 0.9, "dt": 0.1},
+        {
+            COVERAGE: series(279, 0.001),
+            robot_coverage_path(0): series(279, 0.001),
+            path_length_path(0): series(278, 0.1),
+            robot_coverage_path(1): series(279, 0.002),  # its path length was not written
+            PATH_LENGTH_TOTAL: series(278, 0.2),
+            OVERLAP_RATE: series(300, 0.0),
+        },
+        {},
+        notes=("cut.rrd is cut short",),
+    )
+    figures = recorded_figures(run)
+    assert figures["at_step"] == 278
+    assert figures["path_length_m"] == pytest.approx(55.6)
+    assert figures["robots"] == [
+        {"coverage": pytest.approx(0.278), "path_length_m": pytest.approx(27.8)},
+        {"coverage": pytest.approx(0.556), "path_length_m": None},
+    ]
+    assert "r1 -" in "\n".join(render_figures(figures))
+    assert describe_status(run).startswith("did not finish: the recording was cut short")
