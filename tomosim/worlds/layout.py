@@ -77,15 +77,26 @@ def _door(
     axis: str,
     at: float,
     span: tuple[float, float],
+    required: bool = False,
 ) -> None:
-    """Cut a door through the wall on the line ``y = at`` (axis ``"x"``) or ``x = at``."""
+    """Cut a door through the wall on the line ``y = at`` (axis ``"x"``) or ``x = at``.
+
+    A door that does not fit with :data:`DOOR_END_MARGIN` at both ends is left out,
+    unless it is ``required`` (a room's only way in): it is then centred on the span,
+    as wide as drawn or as the span between the end walls allows, so that no room is
+    sealed (blocks down to :data:`MIN_ROOM_WIDTH` are made into rooms).
+    """
     half_t = 0.5 * config.wall_thickness
     width = rng.uniform(*config.door_width)
     low = span[0] + half_t + DOOR_END_MARGIN
     high = span[1] - half_t - DOOR_END_MARGIN - width
-    if high < low:
+    if high >= low:
+        start = rng.uniform(low, high)
+    elif required:
+        width = min(width, span[1] - span[0] - 2.0 * half_t)
+        start = 0.5 * (span[0] + span[1] - width)
+    else:
         return
-    start = rng.uniform(low, high)
     depth = half_t + config.resolution
     if axis == "x":
         layout.doors.append((start, at - depth, start + width, at + depth))
@@ -134,9 +145,9 @@ def _fill_block(
             front = (left, line, right, y1) if faces_up else (left, y0, right, line)
             back = (left, y0, right, line) if faces_up else (left, line, right, y1)
             layout.rooms.append(back)
-            _door(layout, config, rng, axis="x", at=line, span=(left, right))
+            _door(layout, config, rng, axis="x", at=line, span=(left, right), required=True)
         layout.rooms.append(front)
-        _door(layout, config, rng, axis="x", at=corridor_y, span=(left, right))
+        _door(layout, config, rng, axis="x", at=corridor_y, span=(left, right), required=True)
         columns.append((front, back))
     for (a_front, a_back), (b_front, b_back) in itertools.pairwise(columns):
         for a, b in ((a_front, b_front), (a_back, b_back)):

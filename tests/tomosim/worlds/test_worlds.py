@@ -7,9 +7,11 @@ import pytest
 from scipy.spatial import cKDTree
 
 from merging.grid import OccupancyGrid
+from merging.validators import as_generator
 from tomosim.data import maps_dir
 from tomosim.ray_geometry import distance_to_segments
 from tomosim.worlds import FloorplanConfig, World, generate_floorplan, world_from_map
+from tomosim.worlds.layout import draw_layout
 
 CELL_DIAGONAL_HALF = 0.5 * np.sqrt(2.0)
 """Largest distance, in cells, from a point on a cell boundary to that cell's centre."""
@@ -200,3 +202,19 @@ def test_generated_floors_are_explorable_almost_everywhere(office: World) -> Non
     free = office.navigable(0.0)
     assert np.all(office.explorable <= free)
     assert office.explorable.sum() >= 0.99 * free.sum()
+
+
+def test_every_room_has_a_door_on_small_floors() -> None:
+    # Blocks down to MIN_ROOM_WIDTH (1.5 m) are rooms, but a door of up to 1.3 m with
+    # its end margins needs 2.05 m: such rooms were left sealed (10 m x 12 m, seed 76).
+    def meets(door: tuple, room: tuple) -> bool:
+        grown = (room[0] - 0.1, room[1] - 0.1, room[2] + 0.1, room[3] + 0.1)
+        return (
+            door[0] < grown[2] and grown[0] < door[2] and door[1] < grown[3] and grown[1] < door[3]
+        )
+
+    config = FloorplanConfig(width=10.0, height=12.0)
+    for seed in range(120):
+        layout = draw_layout(config, as_generator(seed, name="seed"))
+        for room in layout.rooms:
+            assert any(meets(door, room) for door in layout.doors), (seed, room)
