@@ -123,11 +123,33 @@ def paint_layout(
 
 def _connected(roomy: NDArray[np.bool_], min_cells: int) -> bool:
     """Whether at most one 8-connected patch of ``roomy`` has ``min_cells`` or more cells."""
+    return _patches(roomy, min_cells) <= 1
+
+
+def _patches(roomy: NDArray[np.bool_], min_cells: int) -> int:
+    """The 8-connected patches of ``roomy`` of ``min_cells`` or more cells."""
     labels, count = ndimage.label(roomy, structure=EIGHT_CONNECTED)
     if count <= 1:
-        return True
+        return count
     sizes = np.bincount(labels.ravel())[1:]
-    return int(np.count_nonzero(sizes >= min_cells)) <= 1
+    return int(np.count_nonzero(sizes >= min_cells))
+
+
+def _out_of_reach(
+    reach: NDArray[np.bool_], footprint: NDArray[np.bool_], radius_cells: float
+) -> NDArray[np.bool_]:
+    """``reach`` less the cells within ``radius_cells`` of ``footprint`` (the centres a disc
+    of that radius can take once the footprint is a wall), computed around it only."""
+    rows, cols = np.nonzero(footprint)
+    if len(rows) == 0:
+        return reach
+    pad = math.ceil(radius_cells) + 1
+    r0, r1 = max(rows.min() - pad, 0), min(rows.max() + pad + 1, reach.shape[0])
+    c0, c1 = max(cols.min() - pad, 0), min(cols.max() + pad + 1, reach.shape[1])
+    near = ndimage.distance_transform_edt(~footprint[r0:r1, c0:c1]) <= radius_cells
+    out = reach.copy()
+    out[r0:r1, c0:c1] &= ~near
+    return out
 
 
 def place_clutter(
@@ -141,12 +163,17 @@ def place_clutter(
 
     A piece is dropped when it would come within :data:`DOOR_KEEP_OUT` of a
     door or split the space reachable by a disc of ``config.robot_clearance``
-    into separate patches (of at least :data:`MIN_POCKET_AREA`).
+    into separate patches (of at least :data:`MIN_POCKET_AREA`). That is judged
+    twice: quickly, with the piece's box grown by the clearance (which decides
+    which pieces a floor gets), and exactly, on the cells the piece paints, for
+    the pockets the grown box misses where a rotated piece meets a corner.
     """
     res = config.resolution
     clearance = config.robot_clearance
     roomy = ndimage.distance_transform_edt(data == FREE) * res > clearance
     min_cells = max(1, round(MIN_POCKET_AREA / res**2))
+    fits = roomy.copy()  # exactly where the disc's centre fits, piece by piece
+    patches = _patches(fits, min_cells)
     doors = np.array([[0.5 * (d[0] + d[2]), 0.5 * (d[1] + d[3])] for d in layout.doors])
     half_wall = 0.5 * config.wall_thickness
     for x0, y0, x1, y1 in layout.rooms:
@@ -175,5 +202,9 @@ def place_clutter(
             if not _connected(candidate, min_cells):
                 continue
             footprint = box_mask(data.shape, grid, box) & (data == FREE)
+            still_fits = _out_of_reach(fits, footprint, clearance / res)
+            now = _patches(still_fits, min_cells)
+            if now > patches:
+                continue
             data[footprint] = OCCUPIED
-            roomy = candidate
+            roomy, fits, patches = candidate, still_fits, now
