@@ -16,6 +16,8 @@
 
 ::
 
+    import math
+
     from envs import multi_robot_exploration_v0 as exploration
     from envs.rllib import ppo_config
 
