@@ -23,7 +23,7 @@ interrupted run keeps what it measured.
 
 Usage::
 
-    python scripts/bench_merge.py                       # the full benchmark
+    python scripts/bench_merge.py                       # 30 pairs a map, and the scaling
     python scripts/bench_merge.py --pairs-per-map 5 --sizes 200 400   # a quick look
 """
 
@@ -43,7 +43,13 @@ import numpy as np
 import merging
 from merging.evaluation.metrics import matching_index, transform_error
 from merging.evaluation.pairs import cut_window_pairs
-from tomosim.commands.script_args import non_negative_int, positive_int, run_script, shared_maps
+from tomosim.commands.script_args import (
+    missing_maps,
+    non_negative_int,
+    positive_int,
+    run_script,
+    shared_maps,
+)
 from tomosim.data import maps_dir, maps_missing
 
 DEFAULT_MAPS = ("aces3", "intel", "fr079", "brsu_c069")
@@ -53,12 +59,12 @@ SUCCESS_CELLS = 2.0
 SCALING_MAP = "aces3"
 """The largest map, from which the square windows of the scaling runs are cut."""
 SCALING_METHODS = ("tomographic", "paper", "ros_akaze")
+"""Methods timed against map size by default (OpenCV ones only when installed)."""
 SLOW = 10.0
 """Seconds per pair past which a method is not timed at larger sizes (AKAZE takes over
 a minute per pair at 3200 cells a side)."""
 PADDED_SIZES = (2000, 3000, 4000)
 """Canvas sides (cells) into which the whole building is laid, unknown around it."""
-"""Methods timed against map size by default (OpenCV ones only when installed)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -294,6 +300,10 @@ def main(argv: list[str] | None = None) -> int:
     if maps_dir() is None:
         print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
+    problem = missing_maps(args.maps, "--maps")
+    if problem is not None:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
     unknown = sorted(set(args.methods + args.scaling_methods) - set(merging.available_methods()))
     if unknown:
         print(

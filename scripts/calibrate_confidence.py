@@ -6,9 +6,9 @@ Two kinds of pairs, each with a known truth:
   within 2 cells RMS;
 * robots' maps from simulated exploration episodes (3 robots, generated
   floors, merged every 50 steps for 400 steps, merging itself switched off
-  so the maps grow independently), right when within 1 m of the true
-  relative start pose (the maps are drawn at drifting odometry poses, so a
-  right merge is off by the drift).
+  so the maps grow independently), right when within 1 m and 5 degrees of
+  the true relative start pose (the maps are drawn at drifting odometry
+  poses, so a right merge is off by the drift).
 
 For each kind it prints how many right merges are accepted, how many wrong
 ones are, and the highest confidence of a wrong one: the margin below the
@@ -33,7 +33,7 @@ from merging.evaluation.metrics import transform_error
 from merging.evaluation.pairs import cut_window_pairs
 from merging.evidence.verify import ACCEPT_CONFIDENCE
 from merging.transforms import matrix_to_pose, wrap_angle
-from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.commands.script_args import missing_maps, non_negative_int, positive_int, run_script
 from tomosim.data import maps_dir, maps_missing
 from tomosim.episode import EpisodeConfig, load_world
 from tomosim.exploration import FrontierPolicy
@@ -105,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if maps_dir() is None:  # before the results file is emptied
         parser.error(maps_missing())
+    problem = missing_maps(args.maps, "--maps")
+    if problem is not None:
+        parser.error(problem)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     summary: dict[str, dict[str, float]] = {}
     with args.out.open("w", newline="") as handle:

@@ -51,7 +51,7 @@ from paper_comparison.runner import run_groups
 from paper_comparison.study import Study
 from paper_comparison.tables import markdown_tables, verdict_lines
 
-from tomosim.commands.script_args import non_negative_int, positive_int, run_script
+from tomosim.commands.script_args import missing_maps, non_negative_int, positive_int, run_script
 from tomosim.data import maps_dir, maps_missing
 
 HALMSTAD_FLOORS = ("E5", "F5", "HIH", "KPT4A")
@@ -108,7 +108,9 @@ def main(argv: list[str] | None = None) -> int:
     if maps_dir() is None:
         print(f"error: {maps_missing()}", file=sys.stderr)
         return 1
-    problem = methods_problem(args.methods)
+    problem = methods_problem(args.methods) or missing_maps(
+        [*args.sim_maps, *args.extra_maps], "--sim-maps/--extra-maps"
+    )
     if problem is not None:
         print(f"error: {problem}", file=sys.stderr)
         return 2

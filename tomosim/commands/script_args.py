@@ -16,7 +16,7 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -86,3 +86,17 @@ def shared_maps() -> Path:
     if folder is None:
         raise CommandError(maps_missing())
     return folder
+
+
+def missing_maps(names: Sequence[str], option: str) -> str | None:
+    """Why ``names`` (given with ``option``) are not all maps of :func:`shared_maps`'s
+    folder, in one line; None when they are. Scripts ask before their long runs, which
+    would otherwise stop at the first missing map after the others' work."""
+    folder = shared_maps()
+    missing = [name for name in names if not (folder / f"{name}.yaml").is_file()]
+    if not missing:
+        return None
+    return (
+        f"{option}: no map {', '.join(repr(name) for name in missing)} in {folder}; "
+        "`tomosim maps` lists the names"
+    )
