@@ -47,6 +47,10 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)  # fmt: skip
         return 2
     truth = json.loads((halmstad / "truth_E5.json").read_text())["pairs"]
+    if not any(set(key.split("|")) <= set(names) for key in truth):
+        print(f"error: no two of the sessions {names} form a pair of truth_E5.json; give E5 "
+              "sessions (e.g. E5_01 E5_02)", file=sys.stderr)  # fmt: skip
+        return 2
     grids = [merging.load_map(halmstad / f"{name}.yaml") for name in names]
     clock = time.perf_counter()
     linking = merging.merge_all(grids, rng=0).linking

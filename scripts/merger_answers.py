@@ -145,10 +145,10 @@ def main(argv: list[str] | None = None) -> int:
         for number, line in enumerate(args.compare.read_text().splitlines(), start=1):
             try:
                 entry = json.loads(line)
-            except json.JSONDecodeError:
+                reference[(entry["suite"], entry["pair"])] = entry
+            except (json.JSONDecodeError, KeyError, TypeError):
                 parser.error(f"--compare {args.compare}, line {number}: not a record this "
                              "script wrote with --out")  # fmt: skip
-            reference[(entry["suite"], entry["pair"])] = entry
     handle = open(args.out, "w") if args.out is not None else None  # noqa: SIM115
     same = differ = missing = 0
     turned = {True: 0, False: 0}  # verdicts that moved, by the new one

@@ -56,3 +56,11 @@ def test_a_missing_record_is_a_clear_error(maps_folder, tmp_path) -> None:
     missing = run(maps_folder, "--compare", str(tmp_path / "none.jsonl"))
     assert missing.returncode == 2
     assert "no such file; write one with --out first" in missing.stderr
+
+
+def test_a_file_of_another_kind_is_refused_not_a_traceback(maps_folder, tmp_path) -> None:
+    foreign = tmp_path / "other.jsonl"
+    foreign.write_text('{"pair": "aces3#0"}\n')  # JSON lines, but no suite: a KeyError once
+    refused = run(maps_folder, "--compare", str(foreign))
+    assert refused.returncode == 2
+    assert "line 1: not a record this script wrote with --out" in refused.stderr
