@@ -1,6 +1,6 @@
 """Benchmark the mergers on the maps users bring: whole buildings, separate sessions, low overlap.
 
-Three suites, each running every method on the same pairs in one run (so that
+Four suites, each running every method on the same pairs in one run (so that
 machine load affects them alike), appending a CSV row per method and pair as
 soon as it is known, and writing a Markdown report:
 
@@ -476,6 +476,10 @@ def main(argv: list[str] | None = None) -> int:
         print("error: --every and --pairs-per-map must be positive integers", file=sys.stderr)
         return 2
     methods = available(list(args.methods))
+    if DEFAULT_METHOD in methods:
+        # The "default's" columns compare with the first method run: the default's.
+        methods.remove(DEFAULT_METHOD)
+        methods.insert(0, DEFAULT_METHOD)
     if args.from_truth:
         methods += TRUTH_ROWS
     if args.suite == "sessions":
