@@ -1,6 +1,7 @@
 """How close the merger's accepted estimates in exploration come to what the maps allow.
 
-Exploration on generated floors, with the team's default settings; after every
+Exploration on generated floors, with the team's settings (the defaults unless
+``--team`` changes them); after every
 merge round, each accepted pair estimate is compared with the truth (the
 relative pose of the two robots' true start frames) and with the *best fit
 from the truth*: the default method's refinement of the two grids started at

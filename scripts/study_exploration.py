@@ -133,7 +133,7 @@ def report(
         "",
         *([f"Team settings changed (`--team`): {named}.", ""] if changed else []),
         "Median over seeds (min-max in brackets) of the simulated seconds until the team "
-        "knows 90 % of the free space; `> cap`: fewer than half the episodes got there.",
+        "knows 90 % of the free space; `> cap`: half the episodes or fewer got there.",
         "",
         times_table(worlds, tables, policy, grid.robots),
         "",

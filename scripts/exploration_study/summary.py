@@ -1,8 +1,9 @@
 """Figures of the study: time to the coverage target over seeds, speed-ups, the oracle's share.
 
 An episode that never reached the target counts as ``inf`` (it took longer
-than its cap), so a median over seeds is finite only when at least half the
-episodes reached the target. Spreads are the range (min-max) over seeds.
+than its cap), so a median over seeds is finite only when more than half the
+episodes reached the target (of an even number, the median of two middle times
+one of which is ``inf`` is ``inf``). Spreads are the range (min-max) over seeds.
 
 * **speed-up** of a method over merging off: ``T_none / T_method`` of the
   medians;
@@ -64,7 +65,7 @@ class Cell:
 
     @property
     def median(self) -> float:
-        """Median time over seeds (``inf`` when fewer than half reached the target)."""
+        """Median time over seeds (``inf`` when half of them or fewer reached the target)."""
         return statistics.median(self.times) if self.times else math.nan
 
     @property

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from .contenders import DEFAULT_KEY, Contender
@@ -94,6 +95,9 @@ def verdict_lines(study: Study, contenders: Sequence[Contender]) -> list[str]:
     lines = []
     for row in table_rows(study):
         ours = stats[(row, DEFAULT_KEY)].success
+        if math.isnan(ours):  # no pair of the row could be judged: no verdict
+            lines.append(f"* {row}: no pair could be judged against a reference.")
+            continue
         rivals = [c for c in contenders if c.key != DEFAULT_KEY]
         level = [c.label for c in rivals if stats[(row, c.key)].success == ours]
         better = [
