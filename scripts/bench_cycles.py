@@ -320,6 +320,11 @@ def main(argv: list[str] | None = None) -> int:
     add_merger_argument(parser)
     parser.add_argument("--out", type=Path, default=Path("results/bench_cycles"))
     args = parser.parse_args(argv)
+    if args.look_cells >= WRONG_CELLS:
+        parser.error(
+            f"--look-cells {args.look_cells:g} must be below {WRONG_CELLS:.0f}, the miss "
+            "beyond which an answer counts as wrong"
+        )
     params = merger_params(args.merger)
     folder = shared_maps()
     unknown = sorted(set(args.methods) - set(merging.available_methods()))

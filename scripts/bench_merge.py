@@ -216,7 +216,7 @@ def markdown(summary: dict, per_map: dict, times: dict, truth_psi: float) -> str
         )
     if times:
         methods = list(times)
-        sizes = sorted(next(iter(times.values())))
+        sizes = sorted({size for timed in times.values() for size in timed})
         lines += [
             "",
             "| side (cells) | " + " | ".join(f"{m} median ms (IQR)" for m in methods) + " |",

@@ -188,8 +188,12 @@ def main() -> None:
         default=[],
         help="floor seeds for the exploration table (none: skip it)",
     )
-    parser.add_argument("--budget", type=positive_int, default=3000, help="exploration steps")
+    parser.add_argument(
+        "--budget", type=positive_int, default=3000, help="exploration steps (at least 6)"
+    )
     args = parser.parse_args()
+    if args.budget < 6:  # coverage is reported at six sixths of the budget
+        parser.error(f"--budget {args.budget}: give at least 6 steps")
     world = generate_floorplan(WORLD_SEED)
     print(
         f"world: {world.name}, {len(world.walls)} wall segments; {args.beams} beams; "

@@ -103,6 +103,13 @@ def test_unknown_methods_are_named(capsys, tmp_path, maps_folder) -> None:
     assert not (tmp_path / "pairs.csv").exists()
 
 
+def test_a_look_past_the_wrong_answers_bar_is_refused(capsys, tmp_path) -> None:
+    # --look-cells 150 counted a refused answer 120 cells off as within the look (right).
+    with pytest.raises(SystemExit) as stopped:
+        load_script("bench_cycles").main(["--look-cells", "150", "--out", str(tmp_path)])
+    assert stopped.value.code == 2 and "must be below 100" in capsys.readouterr().err
+
+
 def test_without_the_shared_maps_the_scripts_say_where_they_looked(monkeypatch) -> None:
     from tomosim.commands import CommandError, script_args
 

@@ -1,4 +1,4 @@
-"""Scripts that take map names refuse a missing one before any work, in one line."""
+"""Benchmark scripts: a missing map is refused before any work, in one line; their tables."""
 
 from __future__ import annotations
 
@@ -36,3 +36,12 @@ def test_calibration_refuses_a_missing_map_before_emptying_its_results(
         load_script("calibrate_confidence").main(["--maps", "nosuch", "--out", str(results)])
     assert stopped.value.code == 2 and "--maps: no map 'nosuch'" in capsys.readouterr().err
     assert results.read_text() == "earlier results\n"
+
+
+def test_the_scaling_table_holds_every_size_any_method_was_timed_at() -> None:
+    # The sizes came from the first method alone: a method dropped after its first size
+    # hid the others' timings at the larger ones.
+    times = {"slow": {200: [1.0]}, "tomographic": {200: [0.01], 400: [0.02], 800: [0.04]}}
+    table = load_script("bench_merge").markdown({}, {}, times, 1.0)
+    rows = [line for line in table.splitlines() if line.startswith("| 800 |")]
+    assert len(rows) == 1 and "not timed" in rows[0] and "| 40 (40-40) |" in rows[0]
