@@ -47,6 +47,12 @@ IMAGE_SUFFIXES = (".pgm", ".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 a map's name."""
 
 
+def is_yaml_name(path: str | Path) -> bool:
+    """Whether ``path`` ends in a map's YAML suffix (:data:`MAP_SUFFIXES`), in any case:
+    ``E5.YAML`` is read, listed as an argument and written as ``e5.yaml`` is."""
+    return Path(path).suffix.lower() in MAP_SUFFIXES
+
+
 def repository_root() -> Path:
     """The folder holding the ``merging`` package: the checkout, when installed editable."""
     return Path(__file__).resolve().parents[1]
@@ -103,7 +109,8 @@ def is_map_path(source: str | Path) -> bool:
     text = str(source)
     return (
         isinstance(source, Path)
-        or text.lower().endswith(MAP_SUFFIXES + IMAGE_SUFFIXES)
+        or is_yaml_name(text)
+        or text.lower().endswith(IMAGE_SUFFIXES)
         or text.startswith(("/", "~", "."))
         or "\\" in text
     )

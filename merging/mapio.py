@@ -28,7 +28,7 @@ import yaml
 from numpy.typing import NDArray
 from PIL import Image, UnidentifiedImageError
 
-from merging.catalog import find_map
+from merging.catalog import find_map, is_yaml_name
 from merging.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 
 MODES = ("trinary", "scale", "raw")
@@ -384,7 +384,7 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, image_format: str = 
             f"yaml_path {str(path)!r} is where the {image_format} image would go (the image "
             "takes the YAML's name with its own suffix); give the YAML's path, ending in .yaml"
         )
-    if path.suffix.lower() not in (".yaml", ".yml"):  # in any case, as find_map reads it
+    if not is_yaml_name(path):
         raise ValueError(
             f"yaml_path {str(path)!r} must end in .yaml (or .yml): map_server and load_map "
             "read the map from its YAML file"

@@ -67,10 +67,6 @@ def check_writable(output: Path, *, option: str) -> None:
         )
 
 
-MAP_FILE_SUFFIXES = (".yaml", ".yml")
-"""Suffixes of a map_server YAML file, the file a world option may name."""
-
-
 def world_spec(text: str, *, option: str) -> int | str | Path:
     """What a world option names: a floor plan's seed, a map's name, or a map's YAML file.
 
@@ -80,10 +76,11 @@ def world_spec(text: str, *, option: str) -> int | str | Path:
     stripped = text.strip()
     if stripped.isdigit():
         return int(stripped)
-    suffix = Path(stripped).suffix
-    if suffix.lower() in MAP_FILE_SUFFIXES:  # E5.YAML is read as load_map reads it
+    from merging.catalog import is_yaml_name  # imported when asked, as in check_world
+
+    if is_yaml_name(stripped):
         return Path(stripped)
-    if suffix or not stripped:
+    if Path(stripped).suffix or not stripped:
         raise UsageError(
             f"{option} must be a seed (a whole number >= 0), a map's name ('tomosim maps' "
             f"lists them) or a map_server .yaml file, got {text!r}"

@@ -29,7 +29,7 @@ from PIL import Image
 
 from merging import OccupancyGrid, available_methods, check_method, load_map, merge_all, save_map
 from merging.api import DEFAULT_METHOD
-from merging.catalog import find_map
+from merging.catalog import MAP_SUFFIXES, find_map, is_yaml_name
 from merging.mapio import map_image
 from merging.resample import common_resolution
 from tomosim.commands import CommandError, UsageError, check_writable, one_line
@@ -41,8 +41,6 @@ NAME = "merge"
 """The subcommand's name."""
 HELP = "merge map_server maps (YAML + image) into one map"
 """One line for ``tomosim --help``."""
-MAP_SUFFIXES = (".yaml", ".yml")
-"""Accepted suffixes of the output file: the image goes beside it with its own suffix."""
 DEFAULT_SEED = 0
 """Seed of the merging methods' randomness unless ``--seed`` is given, so runs repeat."""
 
@@ -165,7 +163,7 @@ def check_arguments(args: argparse.Namespace, paths: list[Path], output: Path) -
         check_method(args.method)
     except ValueError as error:
         raise UsageError(str(error)) from None
-    if output.suffix.lower() not in MAP_SUFFIXES:  # M.YAML is written as load_map reads it
+    if not is_yaml_name(output):  # the image goes beside it with its own suffix
         named = output.name not in ("", ".", "..")  # a folder has no name to give a suffix
         if output.name.lower() in MAP_SUFFIXES:  # ".yaml" alone: a suffix without a name
             example = output.parent / "merged.yaml"
