@@ -129,8 +129,8 @@ def _connected(roomy: NDArray[np.bool_], min_cells: int) -> bool:
 def _patches(roomy: NDArray[np.bool_], min_cells: int) -> int:
     """The 8-connected patches of ``roomy`` of ``min_cells`` or more cells."""
     labels, count = ndimage.label(roomy, structure=EIGHT_CONNECTED)
-    if count <= 1:
-        return count
+    if count == 0:
+        return 0
     sizes = np.bincount(labels.ravel())[1:]
     return int(np.count_nonzero(sizes >= min_cells))
 

@@ -92,7 +92,7 @@ def _door(
     high = span[1] - half_t - DOOR_END_MARGIN - width
     if high >= low:
         start = rng.uniform(low, high)
-    elif required:
+    elif required and span[1] - span[0] > 2.0 * half_t:
         width = min(width, span[1] - span[0] - 2.0 * half_t)
         start = 0.5 * (span[0] + span[1] - width)
     else:

@@ -11,7 +11,7 @@ from merging.grid import OccupancyGrid
 from merging.validators import as_generator
 from tomosim.data import maps_dir
 from tomosim.ray_geometry import distance_to_segments
-from tomosim.worlds import FloorplanConfig, World, generate_floorplan, world_from_map
+from tomosim.worlds import FloorplanConfig, World, floorplan, generate_floorplan, world_from_map
 from tomosim.worlds.floorplan import MIN_POCKET_AREA
 from tomosim.worlds.layout import draw_layout
 
@@ -232,3 +232,15 @@ def test_every_room_has_a_door_on_small_floors() -> None:
         layout = draw_layout(config, as_generator(seed, name="seed"))
         for room in layout.rooms:
             assert any(meets(door, room) for door in layout.doors), (seed, room)
+
+
+def test_a_lone_small_patch_is_no_patch_and_no_door_is_inverted() -> None:
+    # One patch below the size counted as a patch (two such counted as none), and a room
+    # narrower than its walls got a required door of negative width.
+    lone = np.zeros((20, 20), bool)
+    lone[3, 3] = True
+    assert floorplan._patches(lone, min_cells=4) == 0
+    config = FloorplanConfig(room_width=(0.0, 6.5))
+    for seed in range(40):
+        for door in draw_layout(config, as_generator(seed, name="seed")).doors:
+            assert door[0] < door[2] and door[1] < door[3], (seed, door)
